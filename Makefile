@@ -1,0 +1,69 @@
+# ReScene: `make help` lists the targets. Every target installs what it needs first.
+SHELL := /bin/bash
+VENV ?= .venv
+PY := $(VENV)/bin/python
+RESCENE := $(VENV)/bin/rescene
+STAMP := $(VENV)/.installed
+DEBIAN_PACKAGES := libusb-1.0-0 libgomp1 libgl1
+DEMO_DIR ?= demo
+PRESET ?= standard
+SEED ?= 0
+SEEDS ?= 0-4
+BENCH_DIR ?= bench
+PREFECT_API_URL ?= http://127.0.0.1:4200/api
+POOL ?= rescene-local
+
+.DEFAULT_GOAL := help
+.PHONY: help setup system-deps demo test check lint format bench server worker deploy clean
+
+help: ## list the targets
+	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
+
+system-deps: ## install the Debian libraries open3d needs (when root), or say which are missing
+	@missing=""; for p in $(DEBIAN_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then echo "installing Debian packages:$$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	  else echo "ReScene needs the Debian packages:$$missing"; echo "  run: sudo apt-get install$$missing"; exit 1; fi; \
+	fi
+
+$(STAMP): pyproject.toml
+	@$(MAKE) --no-print-directory system-deps
+	@test -x $(PY) || python3.11 -m venv $(VENV) || python3 -m venv $(VENV)
+	@$(PY) -m pip install -q --upgrade uv
+	$(PY) -m uv pip install --python $(PY) -e '.[dev]'
+	@touch $(STAMP)
+
+setup: $(STAMP) ## create .venv and install ReScene with its CPU dependencies
+
+demo: $(STAMP) ## synthetic standard capture -> the rescene flow -> where to look
+	$(RESCENE) demo --out $(DEMO_DIR) --preset $(PRESET) --seed $(SEED)
+
+test: $(STAMP) ## run the test suite
+	PREFECT_SERVER_ANALYTICS_ENABLED=false $(PY) -m pytest
+
+lint: $(STAMP) ## ruff lint and format check
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+format: $(STAMP) ## apply ruff formatting and safe fixes
+	$(VENV)/bin/ruff check --fix .
+	$(VENV)/bin/ruff format .
+
+check: lint test ## lint + tests, what CI runs
+
+bench: $(STAMP) ## run every benchmark suite (SEEDS=0-4) into $(BENCH_DIR)/
+	@for s in $$($(RESCENE) bench --list); do $(RESCENE) bench $$s --out $(BENCH_DIR) --seeds $(SEEDS) || exit 1; done
+
+server: $(STAMP) ## start a Prefect server (SQLite; PREFECT_API_DATABASE_CONNECTION_URL for Postgres)
+	$(VENV)/bin/prefect server start --host 127.0.0.1
+
+worker: $(STAMP) ## start a process worker on the local pool
+	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
+	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect worker start --pool $(POOL)
+
+deploy: $(STAMP) ## register the rescene/scene and split deployments with the server
+	cd deployments && PREFECT_API_URL=$(PREFECT_API_URL) ../$(VENV)/bin/prefect --no-prompt deploy --all
+
+clean: ## remove demo and benchmark outputs (keeps .venv)
+	rm -rf $(DEMO_DIR) $(BENCH_DIR) .pytest_cache

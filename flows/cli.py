@@ -1,0 +1,167 @@
+"""The `rescene` command line. It parses arguments and calls library or flow code; nothing else.
+
+Exit codes: 0 success, 1 the work failed, 2 bad input (a clear message, never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def parse_seeds(text: str) -> list[int]:
+    """'0-4' -> [0, 1, 2, 3, 4]; '3,7,9' -> [3, 7, 9]."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        if "-" in part:
+            lo, hi = part.split("-", 1)
+            seeds.extend(range(int(lo), int(hi) + 1))
+        elif part:
+            seeds.append(int(part))
+    if not seeds:
+        raise argparse.ArgumentTypeError(f"no seeds in {text!r}; use '0-4' or '3,7,9'")
+    return seeds
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from rescene_core.capture import check_capture, open_capture
+
+    problems = check_capture(args.capture)
+    errors = [p for p in problems if p.severity == "error"]
+    for p in problems:
+        print(str(p), file=sys.stderr if p.severity == "error" else sys.stdout)
+    if errors:
+        print(f"{args.capture}: INVALID, {len(errors)} error(s)", file=sys.stderr)
+        return 2
+    summary = open_capture(args.capture, validate=False).summary()
+    print(json.dumps(summary, indent=2) if args.json else _format_summary(summary))
+    print(f"{args.capture}: valid capture")
+    return 0
+
+
+def _format_summary(s: dict) -> str:
+    labels = ", ".join(f"{k} x{v}" for k, v in s["labels"].items())
+    return (
+        f"scene {s['scene_id']} ({s['source']}): {s['frames']} frames {s['image_size'][0]}x{s['image_size'][1]}"
+        f"{' with depth' if s['has_depth'] else ''}, {s['instances']} instances ({s['objects']} objects), "
+        f"{s['points']} points{', ground truth' if s['has_ground_truth'] else ''}\n  labels: {labels}"
+    )
+
+
+def _cmd_synth(args: argparse.Namespace) -> int:
+    from rescene_core.capture.synth import synth_command
+
+    return synth_command(args.out, preset=args.preset, seed=args.seed, overwrite=args.overwrite)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from flows.scene import run_command
+
+    return run_command(args)
+
+
+def _cmd_eval(args: argparse.Namespace) -> int:
+    from flows.evaluate import eval_command
+
+    return eval_command(args)
+
+
+def _cmd_log(args: argparse.Namespace) -> int:
+    from rescene_core.runlog.summary import log_command
+
+    return log_command(args.run)
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from flows.demo import demo_command
+
+    return demo_command(args)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from rescene_core.bench import SUITES, run_suite
+
+    if args.list:
+        print("\n".join(SUITES))
+        return 0
+    if args.suite not in SUITES:
+        print(f"unknown suite {args.suite!r}; suites: {', '.join(SUITES)}", file=sys.stderr)
+        return 2
+    if args.out is None:
+        print("--out DIR is required", file=sys.stderr)
+        return 2
+    return run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="rescene", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("synth", help="generate a synthetic capture with ground truth")
+    p.add_argument("out", type=Path, help="output capture, e.g. room.zarr")
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing capture")
+    p.set_defaults(func=_cmd_synth)
+
+    p = sub.add_parser("validate", help="check a capture and print its summary")
+    p.add_argument("capture", type=Path)
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=_cmd_validate)
+
+    p = sub.add_parser("run", help="run the rescene flow on a capture")
+    p.add_argument("capture", type=Path)
+    p.add_argument("--out", type=Path, required=True, help="run directory")
+    p.add_argument("--config", type=Path, help="YAML config (sections of RunConfig)")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE")
+    p.add_argument("--runner", choices=["thread", "dask"], default="thread")
+    p.add_argument("--address", help="Dask scheduler address for --runner dask")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("eval", help="evaluate a run directory against the capture's ground truth")
+    p.add_argument("run", type=Path)
+    p.add_argument("--json", type=Path, help="also write the metrics here")
+    p.set_defaults(func=_cmd_eval)
+
+    p = sub.add_parser("log", help="summarise a run from its logs/run.mcap")
+    p.add_argument("run", type=Path)
+    p.set_defaults(func=_cmd_log)
+
+    p = sub.add_parser("bench", help="run a benchmark suite; prints a table and writes DIR/<suite>.json")
+    p.add_argument("suite", nargs="?")
+    p.add_argument("--out", type=Path)
+    p.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-4"))
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--list", action="store_true", help="list the suites")
+    p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("demo", help="synthetic capture -> validate -> the flow; prints where to look")
+    p.add_argument("--out", type=Path, default=Path("demo"))
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    from rescene_core.capture import CaptureError
+
+    try:
+        return int(args.func(args) or 0)
+    except CaptureError as err:
+        print(str(err), file=sys.stderr)
+        return 2
+    except (FileExistsError, FileNotFoundError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

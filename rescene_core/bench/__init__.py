@@ -1,0 +1,55 @@
+"""Benchmark suites (`rescene bench SUITE`): each measures one stage on synthetic captures.
+
+A suite module defines ``run(seeds: list[int], preset: str, work_dir: Path) -> dict`` returning a
+JSON-serialisable result, and ``table(result: dict) -> str`` rendering it for the terminal.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+SUITES: dict[str, str] = {
+    "synth": "rescene_core.bench.synth",
+    "hierview": "rescene_core.bench.hierview",
+    "registration": "rescene_core.bench.registration",
+    "scenegraph": "rescene_core.bench.scenegraph",
+    "assembly": "rescene_core.bench.assembly",
+    "pipeline": "rescene_core.bench.pipeline",
+}
+"""Suite name -> module. A suite whose module is not there yet is listed but reports so when run."""
+
+
+def machine_info() -> dict[str, object]:
+    return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
+
+
+def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str) -> int:
+    """Run one suite, print its table, write ``out_dir/<name>.json``; returns an exit code."""
+    try:
+        module = importlib.import_module(SUITES[name])
+    except ModuleNotFoundError as err:
+        print(f"suite {name!r} is not available in this build ({err})")
+        return 1
+    out_dir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    result = module.run(seeds=seeds, preset=preset, work_dir=out_dir / f"{name}_work")
+    result = {
+        "suite": name,
+        "preset": preset,
+        "seeds": seeds,
+        "machine": machine_info(),
+        "wall_seconds": round(time.perf_counter() - start, 3),
+        **result,
+    }
+    path = out_dir / f"{name}.json"
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(result, indent=2, default=float))
+    os.replace(tmp, path)
+    print(module.table(result))
+    print(f"wrote {path}")
+    return 0

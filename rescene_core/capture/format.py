@@ -1,0 +1,242 @@
+"""The capture format: a Zarr v3 group holding frames, cameras, panoptic masks and instance point clouds.
+
+Layout (docs/capture-format.md is the user-facing description):
+
+    attrs               format="rescene-capture", version, scene_id, units="m", up="+z", source, instances
+    frames/rgb          uint8   [T, H, W, 3]
+    frames/K            float64 [T, 3, 3]   pinhole intrinsics, pixels
+    frames/world_from_cam float64 [T, 4, 4] camera poses, OpenCV camera axes, metres
+    frames/instance     int32   [T, H, W]   panoptic id per pixel, 0 = none
+    frames/depth        float32 [T, H, W]   optional metric depth along camera z, 0 = invalid
+    instances/ids       int32   [N]
+    instances/offsets   int64   [N + 1]     CSR offsets into points/colors
+    instances/points    float32 [M, 3]      world frame, metres
+    instances/colors    uint8   [M, 3]
+    gt/...                                  ground truth (synthetic captures only)
+
+Writing is atomic: the group is built in a sibling temporary directory and renamed into place.
+Reading is lazy for the per-pixel arrays (zarr arrays, one chunk per frame) and eager for the rest.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+from numpy.typing import NDArray
+
+from rescene_core.records import Camera, Instance, InstanceId, InstancePoints
+
+FORMAT_NAME = "rescene-capture"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class CaptureArrays:
+    """An in-memory capture, as importers and the synthetic generator build it before writing.
+
+    rgb: uint8 [T, H, W, 3]. K: float64 [T, 3, 3]. world_from_cam: float64 [T, 4, 4].
+    instance_masks: int32 [T, H, W] (0 = none). depth: float32 [T, H, W] metres along z, or None.
+    instances: one record per id appearing in masks or point clouds.
+    point_ids: int32 [N]; point_offsets: int64 [N + 1]; points: float32 [M, 3]; colors: uint8 [M, 3].
+    """
+
+    scene_id: str
+    rgb: NDArray[np.uint8]
+    K: NDArray[np.float64]
+    world_from_cam: NDArray[np.float64]
+    instance_masks: NDArray[np.int32]
+    instances: tuple[Instance, ...]
+    point_ids: NDArray[np.int32]
+    point_offsets: NDArray[np.int64]
+    points: NDArray[np.float32]
+    colors: NDArray[np.uint8]
+    depth: NDArray[np.float32] | None = None
+    source: str = "unknown"
+    extra_attrs: dict[str, Any] = field(default_factory=dict)
+
+
+def points_to_csr(
+    clouds: dict[int, tuple[NDArray, NDArray]],
+) -> tuple[NDArray[np.int32], NDArray[np.int64], NDArray[np.float32], NDArray[np.uint8]]:
+    """Concatenate per-instance (points [n, 3], colors [n, 3]) into CSR arrays, ids ascending."""
+    ids = np.array(sorted(clouds), dtype=np.int32)
+    counts = [len(clouds[int(i)][0]) for i in ids]
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    if len(ids):
+        pts = np.concatenate([np.asarray(clouds[int(i)][0], np.float32).reshape(-1, 3) for i in ids])
+        cols = np.concatenate([np.asarray(clouds[int(i)][1], np.uint8).reshape(-1, 3) for i in ids])
+    else:
+        pts, cols = np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
+    return ids, offsets, pts, cols
+
+
+def _codec():
+    return zarr.codecs.BloscCodec(cname="zstd", clevel=3, shuffle=zarr.codecs.BloscShuffle.bitshuffle)
+
+
+def write_array(group: zarr.Group, name: str, data: NDArray, chunks: tuple[int, ...] | None = None) -> None:
+    """Write one compressed array into ``group`` (chunks default to the whole array)."""
+    data = np.ascontiguousarray(data)
+    if chunks is None:
+        chunks = tuple(max(1, s) for s in data.shape)
+    arr = group.create_array(name, shape=data.shape, dtype=data.dtype, chunks=chunks, compressors=[_codec()])
+    if data.size:
+        arr[...] = data
+
+
+def write_capture(
+    path: str | Path,
+    capture: CaptureArrays,
+    extra: Callable[[zarr.Group], None] | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Write ``capture`` as a Zarr v3 group at ``path``, atomically.
+
+    extra: called with the root group before the rename, e.g. to add the ``gt/`` group.
+    """
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists; pass overwrite=True or choose another path")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        root = zarr.open_group(str(tmp), mode="w", zarr_format=3)
+        root.attrs.update(
+            {
+                "format": FORMAT_NAME,
+                "version": FORMAT_VERSION,
+                "scene_id": capture.scene_id,
+                "units": "m",
+                "up": "+z",
+                "source": capture.source,
+                "instances": [inst.to_json() for inst in capture.instances],
+                **capture.extra_attrs,
+            }
+        )
+        frames = root.create_group("frames")
+        t, h, w = capture.instance_masks.shape
+        write_array(frames, "rgb", capture.rgb, (1, h, w, 3))
+        write_array(frames, "K", capture.K)
+        write_array(frames, "world_from_cam", capture.world_from_cam)
+        write_array(frames, "instance", capture.instance_masks, (1, h, w))
+        if capture.depth is not None:
+            write_array(frames, "depth", capture.depth, (1, h, w))
+        inst = root.create_group("instances")
+        write_array(inst, "ids", capture.point_ids)
+        write_array(inst, "offsets", capture.point_offsets)
+        write_array(inst, "points", capture.points, (max(1, min(len(capture.points), 1 << 20)), 3))
+        write_array(inst, "colors", capture.colors, (max(1, min(len(capture.colors), 1 << 20)), 3))
+        if extra is not None:
+            extra(root)
+        if path.exists():
+            shutil.rmtree(path)
+        os.replace(tmp, path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return path
+
+
+class Capture:
+    """A capture opened for reading (use ``rescene_core.capture.open_capture``, which validates).
+
+    Per-pixel arrays stay on disk (zarr arrays; index them per frame). Cameras, the instance table and
+    the CSR point cloud arrays are loaded into memory.
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.root = zarr.open_group(str(self.path), mode="r")
+        self.attrs: dict[str, Any] = dict(self.root.attrs)
+        self.scene_id: str = str(self.attrs.get("scene_id", self.path.stem))
+        self.source: str = str(self.attrs.get("source", "unknown"))
+        self.instances: tuple[Instance, ...] = tuple(Instance.from_json(d) for d in self.attrs["instances"])
+        frames = self.root["frames"]
+        self.rgb: zarr.Array = frames["rgb"]
+        self.instance_masks: zarr.Array = frames["instance"]
+        self.depth: zarr.Array | None = frames["depth"] if "depth" in frames else None
+        self.K: NDArray[np.float64] = np.asarray(frames["K"][...], dtype=np.float64)
+        self.world_from_cam: NDArray[np.float64] = np.asarray(frames["world_from_cam"][...], dtype=np.float64)
+        inst = self.root["instances"]
+        self.point_ids: NDArray[np.int32] = np.asarray(inst["ids"][...])
+        self.point_offsets: NDArray[np.int64] = np.asarray(inst["offsets"][...])
+        self._points = inst["points"]
+        self._colors = inst["colors"]
+        self._row = {int(i): r for r, i in enumerate(self.point_ids)}
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.instance_masks.shape[0])
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+        return int(self.instance_masks.shape[2]), int(self.instance_masks.shape[1])
+
+    @property
+    def has_gt(self) -> bool:
+        return "gt" in self.root
+
+    def instance(self, instance_id: int) -> Instance:
+        for inst in self.instances:
+            if inst.id == instance_id:
+                return inst
+        raise KeyError(f"instance {instance_id} is not in {self.path}")
+
+    @property
+    def object_instances(self) -> tuple[Instance, ...]:
+        """Non-structural instances (the objects that get assets), in table order."""
+        return tuple(i for i in self.instances if not i.structural)
+
+    def camera(self, frame: int) -> Camera:
+        w, h = self.image_size
+        return Camera(self.K[frame], self.world_from_cam[frame], w, h)
+
+    def cameras(self) -> list[Camera]:
+        return [self.camera(t) for t in range(self.num_frames)]
+
+    def point_cloud(self, instance_id: int) -> InstancePoints:
+        """P_i of one instance (empty arrays when it has none)."""
+        row = self._row.get(int(instance_id))
+        if row is None:
+            return InstancePoints(
+                InstanceId(int(instance_id)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
+            )
+        a, b = int(self.point_offsets[row]), int(self.point_offsets[row + 1])
+        return InstancePoints(
+            InstanceId(int(instance_id)), np.asarray(self._points[a:b]), np.asarray(self._colors[a:b])
+        )
+
+    def all_points(self) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
+        """Every instance point [M, 3] and its instance id [M]."""
+        pts = np.asarray(self._points[...])
+        counts = np.diff(self.point_offsets)
+        return pts, np.repeat(self.point_ids, counts).astype(np.int32)
+
+    def summary(self) -> dict[str, Any]:
+        """A short description for people: sizes, counts, labels."""
+        w, h = self.image_size
+        labels: dict[str, int] = {}
+        for inst in self.instances:
+            labels[inst.label] = labels.get(inst.label, 0) + 1
+        return {
+            "path": str(self.path),
+            "scene_id": self.scene_id,
+            "source": self.source,
+            "frames": self.num_frames,
+            "image_size": [w, h],
+            "has_depth": self.depth is not None,
+            "instances": len(self.instances),
+            "objects": len(self.object_instances),
+            "points": int(self.point_offsets[-1]) if len(self.point_offsets) else 0,
+            "labels": dict(sorted(labels.items())),
+            "has_ground_truth": self.has_gt,
+        }

@@ -1,0 +1,253 @@
+"""Run configuration: one pydantic model per stage, defaults = the paper's appendix tables.
+
+``RunConfig`` is the single parameter of the flow. Each section's fields carry a one-line docstring
+naming where the value comes from. Sections are hashed separately (``section_hash``) so a changed
+registration parameter invalidates registration and what follows it, and nothing before it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+
+
+class ShellConfig(_Section):
+    """Room-shell estimation from structural instances or from all points."""
+
+    ransac_distance: float = 0.03
+    """RANSAC inlier distance for floor and wall planes (m)."""
+    min_wall_points: int = 200
+    """Fewest inlier points for a wall plane to be kept."""
+    max_walls: int = 12
+    """Most wall planes extracted."""
+    vertical_tolerance_deg: float = 10.0
+    """Largest tilt of a wall normal from horizontal (deg)."""
+
+
+class HierViewConfig(_Section):
+    """HierView view selection (paper Table 'Default HierView hyperparameters')."""
+
+    method: Literal["hierview", "largest_mask", "completeness_only"] = "hierview"
+    """Selection method: HierView, or the largest-mask / completeness-only baselines of the paper."""
+    min_mask_area: int = 100
+    """a_min: minimum mask pixel count for a candidate view (pixels)."""
+    min_bbox_ratio: float = 0.01
+    """b_min: minimum mask-bounding-box area over image area."""
+    semantic_backend: Literal["clip", "appearance", "none"] = "appearance"
+    """Semantic scorer: open_clip ViT-B/32, a weight-free appearance-consistency scorer, or none."""
+    semantic_fallback: Literal["appearance", "none"] = "appearance"
+    """Scorer used when the CLIP weights cannot be found (the log and report say so)."""
+    tau_s: float = 0.12
+    """tau_s: semantic probability threshold (paper Table A1)."""
+    semantic_rank_keep: int = 3
+    """Candidates of semantic rank <= this are kept regardless of tau_s."""
+    semantic_min_keep: int = 2
+    """Keep at least this many candidates after semantic filtering, when available."""
+    max_points: int = 30000
+    """Most instance points projected for the completeness ranking."""
+    clip_model: str = "ViT-B-32"
+    """open_clip model name (paper: ViT-B/32)."""
+    clip_weights: str | None = None
+    """Local path to CLIP weights; RESCENE_CLIP_WEIGHTS is read when unset. Never downloaded."""
+    clip_batch_size: int = 64
+    """Crops per CLIP forward pass."""
+
+
+class KeyFrameConfig(_Section):
+    """Key-frame selection by greedy 3D coverage (paper Appendix 'Key-Frame Selection')."""
+
+    budget: int = 20
+    """Frame budget."""
+    voxel_divisor: float = 20.0
+    """Voxel size = shortest side of the sampled scene box / this."""
+    min_voxel_size: float = 1e-3
+    """Lower bound of the voxel size (m)."""
+    max_points: int = 250000
+    """Most global points sampled."""
+    min_confidence: float = 0.10
+    """Least point confidence for sampling."""
+    min_mask_match: float = 0.55
+    """A frame is eligible at this mask-match ratio or more."""
+    min_visible_instances: int = 5
+    """A frame is eligible with at least this many visible instances."""
+
+
+class AssetConfig(_Section):
+    """Single-view asset generation."""
+
+    backend: Literal["lift", "sam3d"] = "lift"
+    """'lift' (weight-free CPU) or 'sam3d' (SAM 3D Objects on a GPU worker)."""
+    sam3d_checkpoint: str | None = None
+    """Local path of the SAM 3D Objects checkpoint (sam3d backend only)."""
+    target_faces: int = 4000
+    """Face budget of generated meshes."""
+
+
+class RegistrationConfig(_Section):
+    """Bounded Sim(3) registration (paper Table 'Default registration hyperparameters')."""
+
+    scale_min: float = 0.90
+    """s_min: lower bound of the refinement scale."""
+    scale_max: float = 1.10
+    """s_max: upper bound of the refinement scale."""
+    scale_regularization: float = 0.30
+    """Weight pulling the per-step scale update towards 1."""
+    max_step_rotation_deg: float = 20.0
+    """theta_step: per-iteration rotation clamp (deg)."""
+    max_total_rotation_deg: float = 20.0
+    """theta_tot: accumulated refinement rotation clamp from the initialisation (deg)."""
+    init_rotation_gate_deg: float = 50.0
+    """Initialisation rotation gate (deg)."""
+    result_rotation_gate_deg: float = 50.0
+    """Result rotation gate (deg)."""
+    rmse_worsening_tolerance: float = 0.0
+    """Allowed RMSE increase of a refinement (m)."""
+    inlier_drop_tolerance: float = 0.01
+    """Allowed inlier-ratio drop of a refinement."""
+    voxel_ratio: float = 0.02
+    """Open3D voxel size as a fraction of the target extent."""
+    max_iterations: int = 60
+    """ICP iterations at most."""
+    keep_quantile: float = 0.70
+    """Correspondences below this distance quantile are kept."""
+    max_distance_ratio: float = 0.10
+    """Correspondences farther than this fraction of the target extent are rejected."""
+    min_correspondences: int = 80
+    """Fewest correspondences for an ICP step."""
+    source_samples: int = 5000
+    """Points sampled on the asset mesh."""
+    ransac_iterations: int = 100000
+    """RANSAC iterations of the FPFH initialisation."""
+    seed: int = 0
+    """Seed of the sampling and RANSAC."""
+
+
+class SceneGraphConfig(_Section):
+    """Per-frame relation inference and multi-frame fusion (paper Appendix 'Multi-Frame Fusion Details')."""
+
+    backend: Literal["geometric", "openai"] = "geometric"
+    """Relation predictor: weight-free geometric, or an OpenAI-compatible VLM endpoint."""
+    base_url: str | None = None
+    """OpenAI-compatible base URL (e.g. http://gpu-box:8000/v1); RESCENE_VLM_BASE_URL when unset."""
+    model: str = "Qwen/Qwen3-VL-32B-Instruct"
+    """Model name sent to the endpoint (paper: Qwen3-VL-32B-Instruct)."""
+    api_key_env: str = "RESCENE_VLM_API_KEY"
+    """Environment variable holding the API key (the key itself is never stored)."""
+    timeout_s: float = 120.0
+    """Per-request timeout (s)."""
+    max_concurrency: int = 4
+    """Concurrent requests at most."""
+    transport_retries: int = 3
+    """Retries with backoff on transport errors (timeouts, 5xx)."""
+    retry_budget: int = 2
+    """Validation retries with the errors and the previous JSON in the prompt."""
+    min_id_coverage: float = 0.95
+    """Least fraction of visible ids an answer must cover."""
+    alpha: float = 0.60
+    """Vote weight."""
+    beta: float = 0.25
+    """Geometric-prior weight."""
+    gamma: float = 0.15
+    """Category-prior weight."""
+    shell_weight: float = 0.15
+    """Room-shell prior weight; the others are rescaled by 1 - this."""
+    use_shell_prior: bool = True
+    """Add the room-shell prior when a shell is available."""
+    uncertain_margin: float = 0.15
+    """Edges with a top-2 margin below this are uncertain."""
+    uncertain_top: float = 0.65
+    """Edges with a top score below this are uncertain."""
+    low_confidence: float = 0.60
+    """Low-confidence reporting threshold."""
+
+
+class AttachmentConfig(_Section):
+    """Attachment and layout refinement (paper Table 'Default attachment hyperparameters')."""
+
+    contact_gap: float = 0.01
+    """Default contact gap (m)."""
+    wall_collision_margin: float = 0.02
+    """Wall collision margin (m)."""
+    wall_corner_margin: float = 0.05
+    """Wall corner margin (m)."""
+    max_floor_snap: float = 1.40
+    """Maximum floor-snap vertical translation (m)."""
+    max_floor_yaw_deg: float = 15.0
+    """Maximum floor yaw rotation (deg)."""
+    max_wall_yaw_deg: float = 35.0
+    """Maximum wall yaw rotation (deg)."""
+    near_wall_distance: float = 0.45
+    """Near-wall auto-snap distance (m)."""
+    auto_wall_snap_translation: float = 1.20
+    """Auto wall-snap maximum translation (m)."""
+    auto_wall_snap_rotation_deg: float = 25.0
+    """Auto wall-snap maximum rotation (deg)."""
+    cabinet_corner_translation: float = 0.20
+    """Cabinet-corner maximum translation (m)."""
+    depenetration_iterations: int = 8
+    """Depenetration iterations."""
+    depenetration_step: float = 0.04
+    """Non-wall depenetration step (m)."""
+    wall_tangent_step: float = 0.02
+    """Wall-tangent depenetration step (m)."""
+    near_wall_snap: bool = True
+    """Run the near-wall snap refinement."""
+    bed_wall: bool = True
+    """Run the bed-wall refinement."""
+    cabinet_corner: bool = True
+    """Run the cabinet-corner refinement."""
+    dual_attachment: bool = True
+    """Run the wall-aware and the floor-only branch and keep one per object."""
+
+
+class RunConfig(_Section):
+    """Everything one run of the flow needs besides the capture and the run directory."""
+
+    shell: ShellConfig = Field(default_factory=ShellConfig)
+    hierview: HierViewConfig = Field(default_factory=HierViewConfig)
+    keyframes: KeyFrameConfig = Field(default_factory=KeyFrameConfig)
+    assets: AssetConfig = Field(default_factory=AssetConfig)
+    registration: RegistrationConfig = Field(default_factory=RegistrationConfig)
+    scenegraph: SceneGraphConfig = Field(default_factory=SceneGraphConfig)
+    attachment: AttachmentConfig = Field(default_factory=AttachmentConfig)
+
+    def section_hash(self, name: str) -> str:
+        """Stable hash of one section's values (for cache keys)."""
+        section = getattr(self, name)
+        blob = json.dumps(section.model_dump(mode="json"), sort_keys=True)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+    def with_overrides(self, assignments: list[str]) -> RunConfig:
+        """Apply ``section.field=value`` overrides (values parsed as YAML scalars)."""
+        data = self.model_dump(mode="json")
+        for item in assignments:
+            key, sep, raw = item.partition("=")
+            parts = key.strip().split(".")
+            if not sep or len(parts) != 2:
+                raise ValueError(f"--set expects section.field=value, got {item!r}")
+            section, name = parts
+            if section not in data or name not in data[section]:
+                raise ValueError(f"--set {key}: unknown setting (sections: {', '.join(sorted(data))})")
+            data[section][name] = yaml.safe_load(raw)
+        return RunConfig.model_validate(data)
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] | None = None) -> RunConfig:
+    """Read a YAML config file (missing fields take the defaults) and apply ``--set`` overrides."""
+    data: dict[str, Any] = {}
+    if path is not None:
+        loaded = yaml.safe_load(Path(path).read_text())
+        if loaded is not None and not isinstance(loaded, dict):
+            raise ValueError(f"{path}: expected a mapping of sections, got {type(loaded).__name__}")
+        data = loaded or {}
+    config = RunConfig.model_validate(data)
+    return config.with_overrides(overrides or [])

@@ -1,0 +1,1 @@
+"""Geometry helpers: Sim(3), projection, planes, meshes."""

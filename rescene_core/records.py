@@ -1,0 +1,412 @@
+"""Typed records handed between the stages of the pipeline.
+
+Every record is a frozen dataclass. Array fields say their dtype, shape, units and frame in the
+docstring; conventions follow DESIGN.md: metres, world z up, OpenCV cameras (x right, y down,
+z forward), and ``a_from_b`` transforms that map frame-b points into frame a.
+
+Records that go to disk have ``to_json`` / ``from_json`` with plain JSON types only (no pickles).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Any, NewType
+
+import numpy as np
+from numpy.typing import NDArray
+
+InstanceId = NewType("InstanceId", int)
+"""Canonical instance id taken from the capture's panoptic output (> 0; 0 means 'no instance')."""
+
+
+class Relation(enum.StrEnum):
+    """Relation of a child to its parent in the scene graph."""
+
+    RESTS_ON = "rests-on"
+    MOUNTS_ON = "mounts-on"
+
+
+class Root(enum.StrEnum):
+    """Structural roots of the scene graph. Which wall is meant is resolved later, geometrically."""
+
+    FLOOR = "floor"
+    WALL = "wall"
+
+
+Parent = InstanceId | Root
+"""A parent is another instance or a structural root."""
+
+STRUCTURAL_LABELS = frozenset({"floor", "wall", "ceiling"})
+
+
+def parent_to_json(parent: Parent) -> int | str:
+    return parent.value if isinstance(parent, Root) else int(parent)
+
+
+def parent_from_json(value: int | str) -> Parent:
+    if isinstance(value, str):
+        try:
+            return Root(value)
+        except ValueError:
+            if value.isdigit():
+                return InstanceId(int(value))
+            raise
+    return InstanceId(int(value))
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A calibrated pinhole camera of one frame.
+
+    K: float64 [3, 3] intrinsics in pixels (fx, fy, cx, cy; zero skew).
+    world_from_cam: float64 [4, 4] rigid pose, OpenCV camera axes, metres.
+    width, height: image size in pixels.
+    """
+
+    K: NDArray[np.float64]
+    world_from_cam: NDArray[np.float64]
+    width: int
+    height: int
+
+    @property
+    def cam_from_world(self) -> NDArray[np.float64]:
+        rot = self.world_from_cam[:3, :3]
+        out = np.eye(4)
+        out[:3, :3] = rot.T
+        out[:3, 3] = -rot.T @ self.world_from_cam[:3, 3]
+        return out
+
+    @property
+    def center(self) -> NDArray[np.float64]:
+        """Camera centre in the world frame, float64 [3], metres."""
+        return self.world_from_cam[:3, 3]
+
+    def project(self, points_world: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Project world points [n, 3] -> (pixel coordinates [n, 2] (u right, v down), depth along z [n])."""
+        cam_from_world = self.cam_from_world
+        pts = np.asarray(points_world, dtype=np.float64) @ cam_from_world[:3, :3].T + cam_from_world[:3, 3]
+        z = pts[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = (pts[:, :2] / z[:, None]) * np.diag(self.K)[:2] + self.K[:2, 2]
+        return uv, z
+
+
+@dataclass(frozen=True)
+class Instance:
+    """One panoptic instance: canonical id, category label, and whether it is structure (floor/wall/ceiling)."""
+
+    id: InstanceId
+    label: str
+    structural: bool = False
+
+    def to_json(self) -> dict[str, Any]:
+        return {"id": int(self.id), "label": self.label, "structural": bool(self.structural)}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Instance:
+        return cls(InstanceId(int(d["id"])), str(d["label"]), bool(d.get("structural", False)))
+
+
+@dataclass(frozen=True)
+class InstancePoints:
+    """The semantic point cloud P_i of one instance.
+
+    points: float32 [n, 3], world frame, metres.
+    colors: uint8 [n, 3], RGB.
+    """
+
+    instance: InstanceId
+    points: NDArray[np.float32]
+    colors: NDArray[np.uint8]
+
+    def __len__(self) -> int:
+        return int(self.points.shape[0])
+
+
+@dataclass(frozen=True)
+class Plane:
+    """Plane ``normal . x + offset = 0`` in the world frame; unit normal [3] points into the room."""
+
+    normal: tuple[float, float, float]
+    offset: float
+
+    def signed_distance(self, points: NDArray) -> NDArray[np.float64]:
+        """Signed distance (m) of points [n, 3] from the plane, positive on the room side."""
+        return np.asarray(points, dtype=np.float64) @ np.asarray(self.normal) + self.offset
+
+    def to_json(self) -> dict[str, Any]:
+        return {"normal": [float(v) for v in self.normal], "offset": float(self.offset)}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Plane:
+        n = d["normal"]
+        return cls((float(n[0]), float(n[1]), float(n[2])), float(d["offset"]))
+
+
+@dataclass(frozen=True)
+class WallPlane:
+    """A vertical wall: its plane (normal into the room, horizontal) and its extent along the wall.
+
+    segment: the wall's footprint on the floor, ((x0, y0), (x1, y1)) in metres, world frame.
+    """
+
+    id: int
+    plane: Plane
+    segment: tuple[tuple[float, float], tuple[float, float]]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"id": self.id, "plane": self.plane.to_json(), "segment": [list(p) for p in self.segment]}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> WallPlane:
+        (x0, y0), (x1, y1) = d["segment"]
+        return cls(int(d["id"]), Plane.from_json(d["plane"]), ((float(x0), float(y0)), (float(x1), float(y1))))
+
+
+@dataclass(frozen=True)
+class RoomShell:
+    """The room's structure: floor plane, vertical walls, and the floor polygon.
+
+    floor_polygon: counter-clockwise (x, y) vertices in metres, world frame, without repeating the first.
+    ceiling_height: height of the ceiling above the floor plane (m), when known.
+    """
+
+    floor: Plane
+    walls: tuple[WallPlane, ...]
+    floor_polygon: tuple[tuple[float, float], ...]
+    ceiling_height: float | None = None
+
+    def polygon(self):
+        """The floor polygon as a shapely Polygon."""
+        from shapely.geometry import Polygon
+
+        return Polygon(self.floor_polygon)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "floor": self.floor.to_json(),
+            "walls": [w.to_json() for w in self.walls],
+            "floor_polygon": [list(p) for p in self.floor_polygon],
+            "ceiling_height": self.ceiling_height,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> RoomShell:
+        return cls(
+            floor=Plane.from_json(d["floor"]),
+            walls=tuple(WallPlane.from_json(w) for w in d["walls"]),
+            floor_polygon=tuple((float(x), float(y)) for x, y in d["floor_polygon"]),
+            ceiling_height=None if d.get("ceiling_height") is None else float(d["ceiling_height"]),
+        )
+
+
+@dataclass(frozen=True)
+class ViewChoice:
+    """The view HierView (or a baseline) chose for one instance.
+
+    frame: chosen frame index t*. method: the selection method. reason: why this frame.
+    candidates: one row per candidate frame with every score computed ({"frame", "area", "bbox_ratio",
+    "semantic", "completeness", "stage_reached", ...}).
+    """
+
+    instance: InstanceId
+    frame: int
+    method: str
+    reason: str
+    candidates: tuple[dict[str, Any], ...] = ()
+    semantic_backend: str = "none"
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "instance": int(self.instance),
+            "frame": int(self.frame),
+            "method": self.method,
+            "reason": self.reason,
+            "semantic_backend": self.semantic_backend,
+            "candidates": list(self.candidates),
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> ViewChoice:
+        return cls(
+            InstanceId(int(d["instance"])),
+            int(d["frame"]),
+            str(d["method"]),
+            str(d["reason"]),
+            tuple(d.get("candidates", ())),
+            str(d.get("semantic_backend", "none")),
+        )
+
+
+@dataclass(frozen=True)
+class Asset:
+    """A generated mesh in the asset's own normalised frame.
+
+    vertices: float64 [v, 3] in the asset frame (unit bounding box, centred). faces: int64 [f, 3].
+    backend: which generator produced it ('lift', 'sam3d', 'gt'). metadata: backend details.
+    asset_from_generator: float64 [4, 4] Sim(3) from the generator's raw output frame to the asset frame.
+    """
+
+    instance: InstanceId
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    backend: str
+    metadata: dict[str, Any] = field(default_factory=dict)
+    asset_from_generator: NDArray[np.float64] = field(default_factory=lambda: np.eye(4))
+
+
+@dataclass(frozen=True)
+class Pose:
+    """The registered pose T_i of one instance's asset.
+
+    world_from_asset: float64 [4, 4] Sim(3) mapping asset-frame points to world metres.
+    method: which solver produced it. diagnostics: residuals, inlier ratios and every gate decision.
+    """
+
+    instance: InstanceId
+    world_from_asset: NDArray[np.float64]
+    method: str
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "instance": int(self.instance),
+            "world_from_asset": np.asarray(self.world_from_asset).tolist(),
+            "method": self.method,
+            "diagnostics": self.diagnostics,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Pose:
+        return cls(
+            InstanceId(int(d["instance"])),
+            np.asarray(d["world_from_asset"], dtype=np.float64),
+            str(d["method"]),
+            dict(d.get("diagnostics", {})),
+        )
+
+
+@dataclass(frozen=True)
+class Edge:
+    """Scene-graph edge into ``child``: (c_k, r_k, p_k, omega_k).
+
+    confidence: omega in [0, 1]. scores: fusion terms (V, G, Phi, shell, S). flags: e.g. 'uncertain'.
+    wall_id: the concrete wall a 'mounts-on wall' edge was resolved to, when known.
+    """
+
+    child: InstanceId
+    relation: Relation
+    parent: Parent
+    confidence: float = 1.0
+    scores: dict[str, float] = field(default_factory=dict)
+    flags: tuple[str, ...] = ()
+    wall_id: int | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "child": int(self.child),
+            "relation": self.relation.value,
+            "parent": parent_to_json(self.parent),
+            "confidence": float(self.confidence),
+            "scores": {k: float(v) for k, v in self.scores.items()},
+            "flags": list(self.flags),
+            "wall_id": self.wall_id,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Edge:
+        return cls(
+            child=InstanceId(int(d["child"])),
+            relation=Relation(d["relation"]),
+            parent=parent_from_json(d["parent"]),
+            confidence=float(d.get("confidence", 1.0)),
+            scores={k: float(v) for k, v in d.get("scores", {}).items()},
+            flags=tuple(d.get("flags", ())),
+            wall_id=None if d.get("wall_id") is None else int(d["wall_id"]),
+        )
+
+
+@dataclass(frozen=True)
+class SceneGraph:
+    """A forest over instances rooted at floor/wall: at most one incoming edge per child."""
+
+    edges: tuple[Edge, ...]
+
+    def parent_of(self) -> dict[InstanceId, Edge]:
+        return {e.child: e for e in self.edges}
+
+    def check(self) -> list[str]:
+        """Reasons the graph is not a valid forest (duplicate children, self loops, cycles, dangling parents)."""
+        problems: list[str] = []
+        by_child: dict[InstanceId, Edge] = {}
+        for e in self.edges:
+            if e.child in by_child:
+                problems.append(f"instance {e.child} has more than one parent")
+            by_child[e.child] = e
+            if not isinstance(e.parent, Root) and e.parent == e.child:
+                problems.append(f"instance {e.child} is its own parent")
+        for e in self.edges:
+            if not isinstance(e.parent, Root) and e.parent not in by_child:
+                problems.append(f"instance {e.child} has parent {e.parent}, which has no edge to a root")
+        for start in by_child:
+            seen = {start}
+            node: Parent = by_child[start].parent
+            while not isinstance(node, Root) and node in by_child:
+                if node in seen:
+                    problems.append(f"cycle through instance {start}")
+                    break
+                seen.add(node)
+                node = by_child[node].parent
+        return problems
+
+    def to_json(self) -> dict[str, Any]:
+        return {"edges": [e.to_json() for e in self.edges]}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> SceneGraph:
+        return cls(tuple(Edge.from_json(e) for e in d["edges"]))
+
+
+@dataclass(frozen=True)
+class Missing:
+    """An instance a stage could not handle: later stages skip it, and the report lists it."""
+
+    instance: InstanceId
+    stage: str
+    reason: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"instance": int(self.instance), "stage": self.stage, "reason": self.reason}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Missing:
+        return cls(InstanceId(int(d["instance"])), str(d["stage"]), str(d["reason"]))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The attachment-optimised layout: final poses and the operations that produced them.
+
+    world_from_asset: per instance, float64 [4, 4] Sim(3), T_hat_i = Delta T_i * T_i.
+    operations: one record per operation applied ({"instance", "rule", "transform", ...}).
+    """
+
+    world_from_asset: dict[InstanceId, NDArray[np.float64]]
+    operations: tuple[dict[str, Any], ...] = ()
+    missing: tuple[Missing, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "objects": {str(int(k)): np.asarray(v).tolist() for k, v in self.world_from_asset.items()},
+            "operations": list(self.operations),
+            "missing": [m.to_json() for m in self.missing],
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Layout:
+        return cls(
+            {InstanceId(int(k)): np.asarray(v, dtype=np.float64) for k, v in d["objects"].items()},
+            tuple(d.get("operations", ())),
+            tuple(Missing.from_json(m) for m in d.get("missing", ())),
+        )

@@ -1,0 +1,1 @@
+"""Prefect tasks: thin wrappers that load inputs, call one rescene_core function, and write outputs."""
