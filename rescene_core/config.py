@@ -168,6 +168,48 @@ class SceneGraphConfig(_Section):
     """Edges with a top score below this are uncertain."""
     low_confidence: float = 0.60
     """Low-confidence reporting threshold."""
+    api_key: str | None = Field(default=None, repr=False, exclude=True)
+    """API key given in code (never written out: excluded from dumps, hashes and repr); else api_key_env."""
+    backoff_s: float = 1.0
+    """First transport-retry delay (s); doubles on each retry."""
+    temperature: float = 0.0
+    """Sampling temperature sent to the endpoint."""
+    max_tokens: int = 2048
+    """Largest answer length requested from the endpoint (tokens)."""
+    min_visible_pixels: int = 100
+    """An instance is visible in a frame (shown with an id) from this many mask pixels (a_min of HierView)."""
+    overlay_font_px: int = 0
+    """Height of the id labels in the overlay images (pixels); 0 = image height / 28, at least 12."""
+    floor_contact_tol: float = 0.05
+    """Geometric backend: an instance touches the floor when its lowest visible points are this close (m)."""
+    support_tol: float = 0.06
+    """Geometric backend: largest gap between a child's bottom and a support surface beneath it (m)."""
+    support_radius: float = 0.10
+    """Horizontal radius within which a support-surface point counts as under a child point (m)."""
+    min_support_overlap: float = 0.25
+    """Least fraction of a child's footprint over a parent's surface for an object-support edge."""
+    wall_tol: float = 0.08
+    """Geometric backend: largest distance of a child's back to a wall plane for a mounts-on-wall answer (m)."""
+    min_points: int = 20
+    """Fewest visible points of an instance to reason about it geometrically."""
+    floor_sigma: float = 0.05
+    """Fusion: floor-contact prior falls off as exp(-(gap/sigma)^2) with the bottom-to-floor gap (m)."""
+    wall_sigma: float = 0.06
+    """Fusion: wall-alignment prior falls off as exp(-(residual/sigma)^2) with the back-to-wall residual (m)."""
+    support_sigma: float = 0.05
+    """Fusion: object-support prior falls off as exp(-(gap/sigma)^2) with the bottom-to-face gap (m)."""
+    upward_normal_deg: float = 25.0
+    """A parent point belongs to an upward face when its normal is within this angle of +z (deg)."""
+    normal_neighbours: int = 16
+    """Neighbours used to estimate point normals for the support prior."""
+    max_fusion_points: int = 20000
+    """Most points per instance used by the fusion priors (uniform subsample, seeded)."""
+    prior_path: str | None = None
+    """Category co-occurrence table; None = the shipped rescene_core/data/relation_prior.json."""
+    ab_frames: int = 3
+    """High-visibility frames re-asked with the A/B prompt per uncertain edge (VLM backends)."""
+    ab_geometry_margin: float = 0.20
+    """An A/B answer is rejected when its geometric prior is below the other candidate's by more than this."""
 
 
 class AttachmentConfig(_Section):
