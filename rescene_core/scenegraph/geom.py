@@ -1,0 +1,81 @@
+"""Small geometric measurements shared by the geometric backend and the fusion priors.
+
+All points are world-frame metres, float64 [n, 3]; heights are signed distances above the floor plane.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rescene_core.capture import Capture
+from rescene_core.records import Plane, RoomShell, WallPlane
+
+EXTREME_POINTS = 8
+"""The lower contact surface is the height of the k-th lowest point, k = max(this, EXTREME_FRACTION x n):
+a count, not a quantile, because the points near a contact are few (the contact itself is hidden)."""
+EXTREME_FRACTION = 0.002
+WALL_LATERAL_MARGIN = 0.10
+"""Points within this distance beyond a wall segment's ends still count as in front of it (m)."""
+
+
+def floor_only_shell(capture: Capture) -> RoomShell:
+    """A stand-in shell when none is given: a horizontal floor at the 1st percentile of all point
+    heights, the convex hull of all points as the floor polygon, and no walls."""
+    from shapely.geometry import MultiPoint
+
+    pts, _ = capture.all_points()
+    if not len(pts):
+        raise ValueError(f"{capture.path}: no points to place a floor; give a room shell")
+    z0 = float(np.quantile(pts[:, 2], 0.01))
+    hull = MultiPoint(np.asarray(pts[:, :2], np.float64)).convex_hull
+    coords = list(hull.exterior.coords)[:-1] if hull.geom_type == "Polygon" else []
+    return RoomShell(Plane((0.0, 0.0, 1.0), -z0), (), tuple((float(x), float(y)) for x, y in coords))
+
+
+def lower_surface(height: NDArray) -> float:
+    """Height (m) of an instance's lower contact surface from its point heights [n] (inf when empty)."""
+    n = len(height)
+    if n == 0:
+        return float("inf")
+    k = min(n - 1, max(EXTREME_POINTS, int(EXTREME_FRACTION * n)) - 1)
+    return float(np.partition(height, k)[k])
+
+
+def upper_surface(height: NDArray) -> float:
+    """Height (m) of an instance's top from its point heights [n] (-inf when empty)."""
+    return -lower_surface(-np.asarray(height)) if len(height) else float("-inf")
+
+
+def heights(shell: RoomShell, points: NDArray) -> NDArray[np.float64]:
+    """Height of each point above the floor plane (m), [n]."""
+    return shell.floor.signed_distance(points)
+
+
+def wall_fit(points: NDArray, wall: WallPlane) -> tuple[float, float]:
+    """(back-surface distance to the wall's plane in m, fraction of points laterally in front of the wall).
+
+    The back surface is found like the lower contact surface, along the wall normal (negative when behind).
+    """
+    if not len(points):
+        return float("inf"), 0.0
+    d = wall.plane.signed_distance(points)
+    residual = lower_surface(d)
+    (x0, y0), (x1, y1) = wall.segment
+    seg = np.array([x1 - x0, y1 - y0], np.float64)
+    length = float(np.linalg.norm(seg))
+    if length < 1e-9:
+        return abs(residual), 0.0
+    s = (np.asarray(points)[:, :2] - [x0, y0]) @ (seg / length)
+    lateral = float(np.mean((s >= -WALL_LATERAL_MARGIN) & (s <= length + WALL_LATERAL_MARGIN)))
+    return abs(residual), lateral
+
+
+def nearest_wall(points: NDArray, shell: RoomShell, min_lateral: float = 0.5) -> tuple[WallPlane | None, float]:
+    """The wall whose plane is closest to the points' back surface, among walls they stand in front of."""
+    best, best_d = None, float("inf")
+    for wall in shell.walls:
+        d, lateral = wall_fit(points, wall)
+        if lateral >= min_lateral and d < best_d:
+            best, best_d = wall, d
+    return best, best_d
