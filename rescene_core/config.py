@@ -31,6 +31,24 @@ class ShellConfig(_Section):
     """Most wall planes extracted."""
     vertical_tolerance_deg: float = 10.0
     """Largest tilt of a wall normal from horizontal (deg)."""
+    sample_voxel: float = 0.02
+    """Voxel size the points are thinned to before plane fitting (m)."""
+    floor_min_fraction: float = 0.2
+    """Without floor labels: the floor is the lowest height bin holding at least this fraction of the densest bin."""
+    wall_max_outside_fraction: float = 0.02
+    """Without wall labels: a vertical plane is a wall only if at most this fraction of points lies behind it."""
+    wall_min_height: float = 1.0
+    """Without wall labels: least vertical extent of a wall plane's inliers (m)."""
+    merge_angle_deg: float = 10.0
+    """Wall planes closer than this angle and 2 x ransac_distance in offset are merged (deg)."""
+    polygon_concave_ratio: float = 0.3
+    """shapely concave_hull ratio for the floor outline before clipping by walls (1 = convex hull)."""
+    polygon_simplify: float = 0.05
+    """Douglas-Peucker tolerance of the floor polygon (m)."""
+    ransac_iterations: int = 1000
+    """RANSAC iterations per plane."""
+    seed: int = 0
+    """Seed of the RANSAC plane fits."""
 
 
 class HierViewConfig(_Section):
@@ -60,6 +78,18 @@ class HierViewConfig(_Section):
     """Local path to CLIP weights; RESCENE_CLIP_WEIGHTS is read when unset. Never downloaded."""
     clip_batch_size: int = 64
     """Crops per CLIP forward pass."""
+    clip_prompt: str = "a photo of a {}"
+    """Prompt template for the category text."""
+    clip_crop_margin: float = 0.1
+    """Margin added around the mask's bounding box when cropping, as a fraction of its size."""
+    appearance_bins: int = 12
+    """Appearance scorer: rg-chromaticity bins per axis."""
+    appearance_brightness_bins: int = 3
+    """Appearance scorer: brightness bins."""
+    appearance_floor: float = 1e-3
+    """Appearance scorer: likelihood floor added to every reference-histogram bin."""
+    appearance_same_similarity: float = 0.9
+    """Appearance scorer: instances whose references are at least this similar are not competitors."""
 
 
 class KeyFrameConfig(_Section):
@@ -79,6 +109,10 @@ class KeyFrameConfig(_Section):
     """A frame is eligible at this mask-match ratio or more."""
     min_visible_instances: int = 5
     """A frame is eligible with at least this many visible instances."""
+    include_structural: bool = False
+    """Also voxelise floor/wall/ceiling points (the relation graph is over objects, so off by default)."""
+    seed: int = 0
+    """Seed of the point subsampling."""
 
 
 class AssetConfig(_Section):
@@ -129,6 +163,28 @@ class RegistrationConfig(_Section):
     """RANSAC iterations of the FPFH initialisation."""
     seed: int = 0
     """Seed of the sampling and RANSAC."""
+    max_target_points: int = 3000
+    """Target points kept (seeded random subsample) for registration; bounds the time per instance."""
+    ransac_restarts: int = 3
+    """Independently seeded FPFH+RANSAC runs; the best gated candidate by symmetric fitness is kept."""
+    ransac_confidence: float = 0.999
+    """RANSAC stops early at this confidence."""
+    ransac_distance_voxels: float = 1.5
+    """RANSAC inlier distance in voxels of the normalised clouds."""
+    ransac_edge_length: float = 0.75
+    """Open3D edge-length checker similarity (loose: the partial target's extent differs from the asset's)."""
+    normal_radius_voxels: float = 2.0
+    """Normal-estimation radius in voxels (FPFH)."""
+    feature_radius_voxels: float = 5.0
+    """FPFH feature radius in voxels."""
+    max_init_scale_ratio: float = 2.0
+    """A RANSAC candidate whose scale differs from the extent ratio by more than this factor is rejected."""
+    icp_tolerance: float = 1e-5
+    """ICP stops when a step moves the pose by less than this fraction of the target extent."""
+    degenerate_ratio: float = 1e-3
+    """A cloud whose 2nd or 3rd principal spread is below this fraction of the 1st is planar/collinear."""
+    min_result_inlier_ratio: float = 0.5
+    """A final pose with fewer target inliers than this becomes Missing instead of a wild pose."""
 
 
 class SceneGraphConfig(_Section):
@@ -249,6 +305,31 @@ class AttachmentConfig(_Section):
     """Run the cabinet-corner refinement."""
     dual_attachment: bool = True
     """Run the wall-aware and the floor-only branch and keep one per object."""
+    wall_confidence_min: float = 0.60
+    """Dual attachment: a group with a wall edge below this confidence keeps the floor-only branch (paper's
+    low-confidence threshold)."""
+    max_level_tilt_deg: float = 45.0
+    """Floor, wall and support snaps level the asset axis nearest the floor normal when tilted at most this (deg)."""
+    floor_yaw_align: bool = False
+    """Floor snap also turns the object onto the nearest room axis when within max_floor_yaw_deg."""
+    wall_normal_weight: float = 0.5
+    """Wall resolution: metres of coplanarity residual one radian of normal mismatch costs."""
+    support_normal_deg: float = 10.0
+    """Parent faces whose normal is within this angle of the floor normal are support faces (deg)."""
+    support_level_tolerance: float = 0.01
+    """Support faces within this height of each other form one support level (m)."""
+    max_support_snap: float = 1.40
+    """Largest vertical move of an object-support snap (m; the floor-snap limit)."""
+    near_wall_min_footprint: float = 0.25
+    """Near-wall snap only moves floor objects with at least this footprint area (m^2, 'large furniture')."""
+    containment_tolerance: float = 0.01
+    """A footprint this far (m) beyond the floor polygon still counts as inside."""
+    bed_labels: tuple[str, ...] = ("bed",)
+    """Labels the bed-wall refinement applies to."""
+    cabinet_labels: tuple[str, ...] = ("cabinet", "wardrobe", "dresser", "bookshelf", "bookcase", "shelf")
+    """Labels the cabinet-corner refinement applies to."""
+    stop_after: Literal["relations", "repair", "full"] = "full"
+    """Last stage run: relational layer only, + room/wall repair, or full (+ depenetration)."""
 
 
 class RunConfig(_Section):

@@ -1,0 +1,10 @@
+"""Relation-aware assembly: compile scene-graph edges into Sim(3) corrections, propagate them along the
+graph, repair the layout against the room, and depenetrate (paper Sec. 3.4).
+
+Public: ``attach(objects, graph, shell, config) -> Layout`` and ``AssemblyObject``.
+"""
+
+from rescene_core.assembly.objects import AssemblyError, AssemblyObject, check_object
+from rescene_core.assembly.solver import attach
+
+__all__ = ["AssemblyError", "AssemblyObject", "attach", "check_object"]

@@ -1,0 +1,117 @@
+"""``rests-on`` object: put the child's contact surface on a feasible support face of its parent.
+
+Support faces are the parent's upward-facing triangles (normal within ``support_normal_deg`` of the floor
+normal) grouped into levels of equal height (``support_level_tolerance`` m): a table top, each shelf
+board. A level is feasible when its polygon overlaps the child's footprint; among feasible levels the one
+nearest in height to the child's lowest point wins (the top level when none overlaps). Closed-form
+minimiser: level the child, translate vertically onto the level (at most ``max_support_snap`` m) and
+translate horizontally by the smallest step that puts the footprint on the level's polygon (or its
+centroid, when the footprint is larger than the face).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from shapely.geometry import Polygon
+from shapely.ops import nearest_points
+
+from rescene_core.assembly.objects import footprint
+from rescene_core.assembly.room import Room, fit_translation
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import level_correction, translation
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import Edge, InstanceId
+
+
+@dataclass(frozen=True)
+class SupportLevel:
+    """One horizontal support face of a parent: height above the floor (m) and its polygon (xy, m)."""
+
+    height: float
+    polygon: Polygon
+
+
+def support_levels_of(
+    verts: NDArray, faces: NDArray, room: Room, normal_deg: float, level_tolerance: float
+) -> list[SupportLevel]:
+    """Upward-facing support levels of a mesh with world vertices [v, 3] and faces [f, 3], highest first."""
+    tri = np.asarray(verts)[np.asarray(faces)]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(normals, axis=1)
+    ok = area2 > 1e-12
+    cos = np.zeros(len(tri))
+    cos[ok] = (normals[ok] @ room.up) / area2[ok]
+    up_faces = np.flatnonzero(cos >= np.cos(np.radians(normal_deg)))
+    if up_faces.size == 0:
+        return []
+    heights = room.floor_distance(tri[up_faces].mean(axis=1))
+    order = np.argsort(-heights)
+    levels: list[SupportLevel] = []
+    start = 0
+    for k in range(1, len(order) + 1):
+        if k == len(order) or heights[order[start]] - heights[order[k]] > level_tolerance:
+            group = up_faces[order[start:k]]
+            polys = shapely.polygons(tri[group][:, :, :2])
+            merged = shapely.union_all(shapely.buffer(polys, 1e-6))
+            if merged.area > 0:
+                hull = merged if isinstance(merged, Polygon) else max(merged.geoms, key=lambda g: g.area)
+                levels.append(SupportLevel(float(heights[order[start:k]].max()), hull))
+            start = k
+    return levels
+
+
+def support_levels(state: LayoutState, parent: InstanceId) -> list[SupportLevel]:
+    """Upward-facing support levels of ``parent`` at its current pose, highest first."""
+    cfg = state.config
+    return support_levels_of(
+        state.vertices(parent),
+        state.objects[parent].faces,
+        state.room,
+        cfg.support_normal_deg,
+        cfg.support_level_tolerance,
+    )
+
+
+def compile_support(
+    state: LayoutState, child: InstanceId, edge: Edge
+) -> tuple[NDArray[np.float64] | None, dict[str, Any]]:
+    """World-frame Sim(3) [4, 4] placing ``child`` on a support face of its parent (None: no face)."""
+    cfg, room = state.config, state.room
+    parent = InstanceId(edge.parent)
+    levels = support_levels(state, parent)
+    if not levels:
+        return None, {"reason": f"parent {parent} has no upward-facing support face"}
+    obj = state.objects[child]
+    pose = state.pose(child)
+    verts = state.vertices(child)
+    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    moved = apply(correction @ pose, obj.vertices)
+    bottom = float(room.floor_distance(moved).min())
+    fp = footprint(moved)
+    feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
+    level = min(feasible, key=lambda lv: abs(lv.height - bottom)) if feasible else levels[0]
+    lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
+    shift = fit_translation(fp, level.polygon)
+    how = "footprint on face"
+    if shift is None:
+        centroid = fp.centroid
+        target = centroid if level.polygon.contains(centroid) else nearest_points(level.polygon, centroid)[0]
+        shift = np.array([target.x - centroid.x, target.y - centroid.y])
+        how = "centroid on face (footprint larger than face)"
+    correction = translation([shift[0], shift[1], 0.0] + lift * room.up) @ correction
+    info = {
+        "parent": int(parent),
+        "level_height_m": level.height,
+        "levels": len(levels),
+        "tilt_removed_deg": float(np.degrees(tilt)),
+        "vertical_m": lift,
+        "horizontal_m": shift,
+        "placement": how,
+    }
+    return correction, info

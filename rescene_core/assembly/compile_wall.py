@@ -1,0 +1,167 @@
+"""``mounts-on`` wall: resolve the canonical wall root to a wall plane, then make the back surface coplanar.
+
+Wall resolution (per child): for every wall, the child's back axis is the horizontal asset axis nearest
+to the wall's outward normal; the energy is the coplanarity residual (distance of the back surface from
+the plane, m) + ``wall_normal_weight`` x the normal mismatch (rad) + the distance by which the child lies
+beyond the wall segment (m). Walls needing more than ``max_wall_yaw_deg`` of yaw are not candidates.
+An edge that already names its wall (``Edge.wall_id``) keeps it.
+
+Lateral order (per wall): the along-wall target of each child is its current along-wall position,
+clamped so the object stays ``wall_corner_margin`` m inside the segment ends; when clamping would swap
+two objects, the targets are re-sorted into the original order.
+
+Closed-form minimiser: level (as for the floor), yaw the back axis onto the outward normal, translate
+along the normal until the back surface lies on the plane, translate along the wall to the lateral target,
+and keep the object above the floor (and below the ceiling when known).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rescene_core.assembly.room import Wall
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import (
+    level_correction,
+    nearest_axis,
+    rotation_about,
+    signed_yaw,
+    translation,
+)
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import Edge, InstanceId, Relation, Root
+
+
+@dataclass(frozen=True)
+class WallChoice:
+    """Where one wall-mounted child goes: wall, back axis (asset index, sign), along-wall target (m)."""
+
+    wall: Wall
+    axis: int
+    sign: float
+    target_along: float
+    cost: float
+
+
+def horizontal_axes(pose: NDArray, up: NDArray) -> tuple[int, ...]:
+    up_idx, _, _ = nearest_axis(pose, up)
+    return tuple(k for k in range(3) if k != up_idx)
+
+
+def wall_cost(state: LayoutState, child: InstanceId, wall: Wall) -> tuple[float, int, float, float]:
+    """(energy, back-axis index, sign, yaw needed in rad) of mounting ``child`` on ``wall``."""
+    pose = state.pose(child)
+    verts = state.vertices(child)
+    idx, sign, axis = nearest_axis(pose, -wall.normal, horizontal_axes(pose, state.room.up))
+    yaw = signed_yaw(axis, -wall.normal, state.room.up)
+    coplanar = abs(float(wall.distance(verts).min()))
+    along = wall.along(state.centre(child)[None])[0]
+    beyond = max(0.0, -along, along - wall.length)
+    return coplanar + state.config.wall_normal_weight * abs(yaw) + beyond, idx, sign, yaw
+
+
+def resolve_walls(state: LayoutState) -> dict[InstanceId, WallChoice]:
+    """Wall resolution for every ``mounts-on wall`` edge, with lateral targets that keep the wall's order."""
+    cfg, room = state.config, state.room
+    chosen: dict[InstanceId, tuple[Wall, int, float, float]] = {}
+    for child, edge in state.forest.edges.items():
+        if edge.relation is not Relation.MOUNTS_ON or edge.parent is not Root.WALL:
+            continue
+        if not room.walls:
+            continue
+        named = room.wall(edge.wall_id) if edge.wall_id is not None else None
+        best = None
+        for wall in [named] if named is not None else room.walls:
+            cost, idx, sign, yaw = wall_cost(state, child, wall)
+            if abs(yaw) > np.radians(cfg.max_wall_yaw_deg) and named is None:
+                continue
+            if best is None or cost < best[3]:
+                best = (wall, idx, sign, cost)
+        if best is None:
+            state.skip(child, "wall resolution", f"no wall within the {cfg.max_wall_yaw_deg} deg yaw limit")
+            continue
+        chosen[child] = best
+        state.log(child, "wall resolution", "resolve wall root", wall_id=best[0].id, energy=best[3])
+    plans: dict[InstanceId, WallChoice] = {}
+    for wall in room.walls:
+        kids = [c for c, v in chosen.items() if v[0] is wall]
+        if not kids:
+            continue
+        along = np.array([wall.along(state.centre(c)[None])[0] for c in kids])
+        half = np.array([0.5 * np.ptp(wall.along(state.vertices(c))) for c in kids])
+        lo = cfg.wall_corner_margin + half
+        hi = wall.length - cfg.wall_corner_margin - half
+        target = np.where(lo <= hi, np.clip(along, lo, np.maximum(lo, hi)), 0.5 * wall.length)
+        z = [state.room.floor_distance(state.vertices(c)) for c in kids]
+        target = keep_lateral_order(along, target, half, lo, hi, [(v.min(), v.max()) for v in z], cfg.contact_gap)
+        for c, t in zip(kids, target):
+            w, idx, sign, cost = chosen[c]
+            plans[c] = WallChoice(w, idx, sign, float(t), cost)
+    return plans
+
+
+def keep_lateral_order(along, target, half, lo, hi, heights, gap) -> NDArray[np.float64]:
+    """Along-wall targets (m) in the original order ``along``, with objects whose height ranges overlap
+    kept ``gap`` m apart side by side: a forward pass pushes right, a backward pass pulls back under the
+    upper bounds ``hi``; the lower bounds ``lo`` win when the wall is too short for all of them."""
+    order = np.argsort(along, kind="stable")
+    t = np.array(target, dtype=np.float64)
+
+    def overlap(a: int, b: int) -> bool:
+        return heights[a][0] < heights[b][1] and heights[b][0] < heights[a][1]
+
+    for k, i in enumerate(order):
+        for j in order[:k]:
+            if overlap(i, j):
+                t[i] = max(t[i], t[j] + half[i] + half[j] + gap)
+    for k in range(len(order) - 1, -1, -1):
+        i = order[k]
+        t[i] = min(t[i], max(hi[i], lo[i]))
+        for j in order[k + 1 :]:
+            if overlap(i, j):
+                t[i] = min(t[i], t[j] - half[i] - half[j] - gap)
+        t[i] = max(t[i], lo[i])
+    return t
+
+
+def compile_wall(
+    state: LayoutState, child: InstanceId, edge: Edge, plan: WallChoice | None
+) -> tuple[NDArray[np.float64] | None, dict[str, Any]]:
+    """World-frame Sim(3) [4, 4] mounting ``child`` flat on its resolved wall (None: no wall resolved)."""
+    if plan is None:
+        return None, {"reason": "no wall resolved for this edge"}
+    cfg, room, wall = state.config, state.room, plan.wall
+    obj = state.objects[child]
+    pose = state.pose(child)
+    verts = state.vertices(child)
+    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    axis = plan.sign * (correction @ pose)[:3, plan.axis]
+    yaw = signed_yaw(axis, -wall.normal, room.up)
+    yaw = float(np.clip(yaw, -np.radians(cfg.max_wall_yaw_deg), np.radians(cfg.max_wall_yaw_deg)))
+    correction = rotation_about(yaw * room.up, pivot) @ correction
+    moved = apply(correction @ pose, obj.vertices)
+    push = -float(wall.distance(moved).min())
+    centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
+    slide = plan.target_along - float(wall.along(centre[None])[0])
+    floor_gap = float(room.floor_distance(moved).min())
+    lift = max(0.0, -floor_gap)
+    ceiling = room.shell.ceiling_height
+    if ceiling is not None:
+        top = float(room.floor_distance(moved).max())
+        if top + lift > ceiling:
+            lift = max(ceiling - top, -floor_gap)
+    correction = translation(push * wall.normal + slide * wall.tangent + lift * room.up) @ correction
+    info = {
+        "wall_id": wall.id,
+        "tilt_removed_deg": float(np.degrees(tilt)),
+        "yaw_deg": float(np.degrees(yaw)),
+        "normal_m": push,
+        "along_m": slide,
+        "vertical_m": lift,
+    }
+    return correction, info

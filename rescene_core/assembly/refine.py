@@ -1,0 +1,187 @@
+"""Room and wall repairs after the relational layer (paper Appendix 'Attachment and Layout Refinement').
+
+near-wall snap: large floor objects whose back lies within ``near_wall_distance`` of a wall and whose
+    nearest horizontal axis is within ``auto_wall_snap_rotation_deg`` of the wall normal are turned
+    square to the wall and moved to ``wall_collision_margin`` from it (at most
+    ``auto_wall_snap_translation`` m).
+outside repair: an object whose footprint leaves the floor polygon (beyond ``containment_tolerance``)
+    is moved by the smallest translation that puts it back inside the polygon shrunk by
+    ``wall_collision_margin`` (wall-mounted objects: the polygon itself).
+bed-wall: beds (``bed_labels``) get the same wall snap with the distance limit raised to
+    ``auto_wall_snap_translation``.
+cabinet corner: cabinets (``cabinet_labels``) within ``cabinet_corner_translation`` of two
+    non-parallel walls are moved into the corner, at most that far.
+Every move takes the object's descendants along.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rescene_core.assembly.compile_floor import inner_polygon
+from rescene_core.assembly.compile_wall import horizontal_axes
+from rescene_core.assembly.room import Wall, fit_translation
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import nearest_axis, rotation_about, signed_yaw, translation
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import InstanceId, Relation, Root
+
+
+def floor_objects(state: LayoutState) -> list[InstanceId]:
+    """Objects resting on the floor root."""
+    return [c for c, e in state.forest.edges.items() if e.relation is Relation.RESTS_ON and e.parent is Root.FLOOR]
+
+
+def label_matches(label: str, names: tuple[str, ...]) -> bool:
+    words = label.lower().replace("-", " ").replace("_", " ").split()
+    return any(n in words or label.lower() == n for n in names)
+
+
+def _overlaps_segment(wall: Wall, verts: np.ndarray) -> bool:
+    along = wall.along(verts)
+    return bool(along.max() > 0.0 and along.min() < wall.length)
+
+
+def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float, max_move: float, stage: str) -> bool:
+    """Turn object i square to its nearest wall and put it ``wall_collision_margin`` from it."""
+    cfg, room = state.config, state.room
+    if i in state.unfit:
+        return False
+    pose, verts = state.pose(i), state.vertices(i)
+    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    best = None
+    for wall in room.walls:
+        if not _overlaps_segment(wall, verts):
+            continue
+        gap = float(wall.distance(verts).min())
+        if gap > max_gap:
+            continue
+        _, _, axis = nearest_axis(pose, -wall.normal, horizontal_axes(pose, room.up))
+        yaw = signed_yaw(axis, -wall.normal, room.up)
+        if abs(yaw) > max_rot:
+            continue
+        if best is None or abs(gap) < abs(best[1]):
+            best = (wall, gap, yaw)
+    if best is None:
+        return False
+    wall, gap, yaw = best
+    turn = rotation_about(yaw * room.up, pivot)
+    new_gap = float(wall.distance(apply(turn @ pose, state.objects[i].vertices)).min())
+    # a gap already inside [0, margin] is contact: keep it; otherwise close (or open) it to the margin
+    push = float(np.clip(new_gap, 0.0, cfg.wall_collision_margin)) - new_gap
+    if abs(push) > max_move:
+        state.skip(i, stage, f"wall snap needs {abs(push):.3f} m > {max_move} m")
+        return False
+    if abs(push) < 1e-6 and abs(yaw) < 1e-9:
+        return False
+    state.move(
+        i,
+        translation(push * wall.normal) @ turn,
+        stage,
+        "snap to wall",
+        wall_id=wall.id,
+        yaw_deg=float(np.degrees(yaw)),
+        normal_m=push,
+    )
+    return True
+
+
+def near_wall_snap(state: LayoutState) -> None:
+    cfg = state.config
+    for i in floor_objects(state):
+        if state.footprint(i).area < cfg.near_wall_min_footprint:
+            continue
+        wall_snap(
+            state,
+            i,
+            cfg.near_wall_distance,
+            np.radians(cfg.auto_wall_snap_rotation_deg),
+            cfg.auto_wall_snap_translation,
+            "near-wall snap",
+        )
+
+
+def bed_wall(state: LayoutState) -> None:
+    cfg = state.config
+    for i in floor_objects(state):
+        if label_matches(state.objects[i].label, cfg.bed_labels):
+            wall_snap(
+                state,
+                i,
+                cfg.auto_wall_snap_translation,
+                np.radians(cfg.auto_wall_snap_rotation_deg),
+                cfg.auto_wall_snap_translation,
+                "bed-wall",
+            )
+
+
+def cabinet_corner(state: LayoutState) -> None:
+    cfg, room = state.config, state.room
+    for i in floor_objects(state):
+        if i in state.unfit or not label_matches(state.objects[i].label, cfg.cabinet_labels):
+            continue
+        verts = state.vertices(i)
+        near = []
+        for wall in room.walls:
+            gap = float(wall.distance(verts).min())
+            if _overlaps_segment(wall, verts) and gap <= cfg.cabinet_corner_translation:
+                near.append((gap, wall))
+        near.sort(key=lambda gw: gw[0])
+        pair = next(
+            ((a, b) for k, a in enumerate(near) for b in near[k + 1 :] if abs(a[1].normal @ b[1].normal) < 0.5),
+            None,
+        )
+        if pair is None:
+            continue
+        (g1, w1), (g2, w2) = pair
+        n = np.stack([w1.normal[:2], w2.normal[:2]])
+        margin = cfg.wall_collision_margin
+        step2 = np.linalg.solve(n, [np.clip(g1, 0.0, margin) - g1, np.clip(g2, 0.0, margin) - g2])
+        step = np.array([step2[0], step2[1], 0.0])
+        if np.linalg.norm(step) > cfg.cabinet_corner_translation:
+            state.skip(i, "cabinet corner", f"corner needs {np.linalg.norm(step):.3f} m")
+            continue
+        if np.linalg.norm(step) > 1e-6:
+            state.move(i, translation(step), "cabinet corner", "snap into corner", walls=[w1.id, w2.id])
+
+
+def containment_region(state: LayoutState, i: InstanceId):
+    """Where object i's footprint must lie: the polygon for wall-mounted objects, else the inset polygon."""
+    room = state.room
+    if i in state.wall_of:
+        return room.polygon
+    return inner_polygon(room, state.config.wall_collision_margin)
+
+
+def is_outside(state: LayoutState, i: InstanceId) -> bool:
+    room = state.room
+    if room.polygon is None:
+        return False
+    return not state.footprint(i).within(room.polygon.buffer(state.config.containment_tolerance))
+
+
+def outside_repair(state: LayoutState, stage: str = "outside repair") -> None:
+    """Move every object whose footprint leaves the room back inside (parents before children)."""
+    if state.room.polygon is None:
+        return
+    order = list(state.forest.edges) + [i for i in state.objects if i not in state.forest.edges]
+    for i in order:
+        if i in state.unfit or not is_outside(state, i):
+            continue
+        shift = fit_translation(state.footprint(i), containment_region(state, i))
+        if shift is None:
+            state.skip(i, stage, "footprint is larger than the room; left in place")
+            continue
+        state.move(i, translation([shift[0], shift[1], 0.0]), stage, "move inside floor polygon")
+
+
+def find_unfit(state: LayoutState) -> frozenset[InstanceId]:
+    """Objects whose current footprint cannot be translated inside the (inset) floor polygon."""
+    if state.room.polygon is None:
+        return frozenset()
+    out = set()
+    for i in state.objects:
+        region = containment_region(state, i)
+        if region is not None and fit_translation(state.footprint(i), region) is None:
+            out.add(i)
+    return frozenset(out)

@@ -1,0 +1,160 @@
+"""``attach``: the staged attachment solver (paper Sec. 3.4 and Appendix 'Attachment and Layout Refinement').
+
+Stages, in order: relational layer (floor snap, wall resolution, wall attachment and object support, all
+by propagation in topological order), room/wall repair (near-wall snap, outside repair, bed-wall,
+cabinet corner), then depenetration and a last containment check. ``AttachmentConfig.stop_after`` ends
+the run after 'relations' or 'repair' (the ablation of the paper's Table 3(c)).
+
+Dual attachment (``dual_attachment``): the wall-aware branch uses every edge and the wall refinements;
+the floor-only branch leaves ``mounts-on wall`` edges and the wall refinements out. Per group (an object
+on a structural root together with everything it carries) the wall-aware result is kept unless
+  (a) the group holds a ``mounts-on wall`` edge with confidence below ``wall_confidence_min``, or
+  (b) in the wall-aware result the group is in more collisions plus out-of-room objects than in the
+      floor-only result.
+When any group takes the floor-only result, depenetration and the containment check run once more on
+the merged layout.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+
+from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.depenetrate import depenetrate
+from rescene_core.assembly.graph import build_forest
+from rescene_core.assembly.objects import AssemblyObject, check_object
+from rescene_core.assembly.propagate import propagate
+from rescene_core.assembly.refine import (
+    bed_wall,
+    cabinet_corner,
+    find_unfit,
+    is_outside,
+    near_wall_snap,
+    outside_repair,
+)
+from rescene_core.assembly.room import room_from_shell
+from rescene_core.assembly.state import LayoutState
+from rescene_core.config import AttachmentConfig
+from rescene_core.records import InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
+
+
+def run_branch(state: LayoutState, world: CollisionWorld, use_walls: bool) -> LayoutState:
+    """Run the stages on ``state`` in place (see the module docstring) and return it."""
+    cfg = state.config
+    propagate(state, use_walls=use_walls)
+    if cfg.stop_after == "relations":
+        return state
+    walls_ok = use_walls and bool(state.room.walls)
+    if walls_ok and cfg.near_wall_snap:
+        near_wall_snap(state)
+    outside_repair(state)
+    if walls_ok and cfg.bed_wall:
+        bed_wall(state)
+    if walls_ok and cfg.cabinet_corner:
+        cabinet_corner(state)
+    if cfg.stop_after == "repair":
+        return state
+    depenetrate(state, world)
+    outside_repair(state, "final containment")
+    return state
+
+
+def _group_scores(state: LayoutState, world: CollisionWorld) -> dict[InstanceId, int]:
+    """Collisions (non-related pairs) plus out-of-room objects per group root."""
+    forest = state.forest
+    score: dict[InstanceId, int] = defaultdict(int)
+    for a, b in world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related):
+        score[forest.root_of(a)] += 1
+        score[forest.root_of(b)] += 1
+    for i in state.objects:
+        if is_outside(state, i):
+            score[forest.root_of(i)] += 1
+    return score
+
+
+def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld) -> LayoutState:
+    """Merge the two branches per group by the rule in the module docstring."""
+    cfg, forest = wall.config, wall.forest
+    merged = wall.copy("dual")
+    merged.operations = wall.operations + floor.operations
+    wall_score, floor_score = _group_scores(wall, world), _group_scores(floor, world)
+    groups: dict[InstanceId, list[InstanceId]] = defaultdict(list)
+    for i in wall.objects:
+        groups[forest.root_of(i)].append(i)
+    switched = False
+    for root, members in sorted(groups.items()):
+        weak = [
+            int(i)
+            for i in members
+            if i in forest.edges
+            and forest.edges[i].relation is Relation.MOUNTS_ON
+            and forest.edges[i].parent is Root.WALL
+            and forest.edges[i].confidence < cfg.wall_confidence_min
+        ]
+        worse = wall_score[root] > floor_score[root]
+        differs = any(not np.allclose(wall.delta[i], floor.delta[i], atol=1e-9) for i in members)
+        if differs and (weak or worse):
+            reason = (
+                f"wall edge confidence below {cfg.wall_confidence_min} for {weak}"
+                if weak
+                else f"wall-aware score {wall_score[root]} > floor-only score {floor_score[root]}"
+            )
+            for i in members:
+                merged.delta[i] = floor.delta[i].copy()
+                merged._version[i] += 1
+                merged.wall_of.pop(i, None)
+            merged.log(root, "dual attachment", "keep floor-only", reason=reason, members=[int(i) for i in members])
+            switched = True
+        elif differs:
+            merged.log(
+                root, "dual attachment", "keep wall-aware", wall_score=wall_score[root], floor_score=floor_score[root]
+            )
+    if switched and cfg.stop_after == "full":
+        depenetrate(merged, world, "depenetration (merged)")
+        outside_repair(merged, "final containment (merged)")
+    return merged
+
+
+def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShell, config: AttachmentConfig) -> Layout:
+    """Place every object: compile the graph's relations, propagate, repair and depenetrate.
+
+    objects: instance id -> AssemblyObject (asset-frame mesh and registered world_from_asset).
+    Returns a Layout with world_from_asset [4, 4] per placed object (T_hat_i = Delta T_i T_i), every
+    operation applied (object, branch, stage, rule, transform) and the objects that could not be placed
+    (as Missing). Raises AssemblyError only when the room's floor plane is unusable.
+    """
+    room = room_from_shell(shell)
+    valid: dict[InstanceId, AssemblyObject] = {}
+    missing: list[Missing] = []
+    for key, obj in sorted(objects.items()):
+        problems = check_object(obj)
+        if int(key) != int(obj.instance):
+            problems.append(f"dict key {key} differs from the object's instance id {obj.instance}")
+        if problems:
+            missing.append(Missing(InstanceId(int(key)), "assembly", "; ".join(problems)))
+        else:
+            valid[InstanceId(int(key))] = obj
+    forest = build_forest(graph, set(valid))
+    base = LayoutState(valid, forest, room, config)
+    base.unfit = find_unfit(base)
+    for i in sorted(base.unfit):
+        base.log(i, "input", "note", reason="footprint cannot fit inside the room; repairs leave it in place")
+    for note in room.notes:
+        base.operations.append({"instance": None, "branch": "all", "stage": "input", "rule": "note", "reason": note})
+    for edge, reason in forest.skipped:
+        base.log(edge.child, "input", "skip edge", reason=reason, edge=edge.to_json())
+    world = CollisionWorld(valid)
+    wall_state = run_branch(base.copy("wall-aware"), world, use_walls=True)
+    if config.dual_attachment:
+        floor_state = run_branch(base.copy("floor-only"), world, use_walls=False)
+        floor_state.operations = floor_state.operations[len(base.operations) :]
+        final = choose_branches(wall_state, floor_state, world)
+    else:
+        final = wall_state
+    return Layout(
+        world_from_asset={i: final.pose(i) for i in valid},
+        operations=tuple(final.operations),
+        missing=tuple(missing),
+    )

@@ -1,0 +1,112 @@
+"""Mutable working state of one attachment run: per-object adjustments Delta T_i and the operation log."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import Polygon
+
+from rescene_core.assembly.graph import Forest
+from rescene_core.assembly.objects import AssemblyObject, footprint
+from rescene_core.assembly.room import Room
+from rescene_core.config import AttachmentConfig
+from rescene_core.records import InstanceId
+
+
+def _round(m: NDArray) -> list[list[float]]:
+    return np.round(np.asarray(m, dtype=np.float64), 9).tolist()
+
+
+@dataclass
+class LayoutState:
+    """Objects, their registered poses T_i, the world-frame adjustments Delta T_i, and what was done.
+
+    pose(i) = delta[i] @ T_i (paper: T_hat_i = Compose(Delta T_i, T_i)). Moving an object moves its
+    whole subtree in the forest, so descendants keep their place relative to their parents.
+    """
+
+    objects: dict[InstanceId, AssemblyObject]
+    forest: Forest
+    room: Room
+    config: AttachmentConfig
+    branch: str = "wall-aware"
+    delta: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
+    operations: list[dict[str, Any]] = field(default_factory=list)
+    wall_of: dict[InstanceId, int] = field(default_factory=dict)
+    """Concrete wall each wall-mounted object was attached to."""
+    unfit: frozenset[InstanceId] = frozenset()
+    """Objects whose footprint cannot fit inside the room: no repair or depenetration moves them."""
+    _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
+    _version: dict[InstanceId, int] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for i in self.objects:
+            self.delta.setdefault(i, np.eye(4))
+            self._version.setdefault(i, 0)
+
+    def copy(self, branch: str | None = None) -> LayoutState:
+        return LayoutState(
+            self.objects,
+            self.forest,
+            self.room,
+            self.config,
+            branch or self.branch,
+            {k: v.copy() for k, v in self.delta.items()},
+            list(self.operations),
+            dict(self.wall_of),
+            self.unfit,
+        )
+
+    def pose(self, i: InstanceId) -> NDArray[np.float64]:
+        """Current world_from_asset [4, 4] of object i."""
+        return self.delta[i] @ self.objects[i].world_from_asset
+
+    def vertices(self, i: InstanceId) -> NDArray[np.float64]:
+        """Current world vertices [v, 3] of object i (cached until it moves)."""
+        version = self._version[i]
+        hit = self._cache.get(i)
+        if hit is None or hit[0] != version:
+            hit = (version, self.objects[i].world_vertices(self.pose(i)))
+            self._cache[i] = hit
+        return hit[1]
+
+    def footprint(self, i: InstanceId) -> Polygon:
+        return footprint(self.vertices(i))
+
+    def centre(self, i: InstanceId) -> NDArray[np.float64]:
+        """Centre [3] of the current world bounding box of object i (m)."""
+        v = self.vertices(i)
+        return 0.5 * (v.min(axis=0) + v.max(axis=0))
+
+    def move(self, i: InstanceId, correction: NDArray, stage: str, rule: str, **info: Any) -> None:
+        """Apply the world-frame ``correction`` [4, 4] to object i and all its descendants, and log it."""
+        if np.allclose(correction, np.eye(4), atol=1e-12):
+            return
+        moved = self.forest.subtree(i)
+        for j in moved:
+            self.delta[j] = correction @ self.delta[j]
+            self._version[j] += 1
+        self.log(i, stage, rule, transform=correction, moved=[int(j) for j in moved], **info)
+
+    def set_delta(self, i: InstanceId, delta: NDArray, stage: str, rule: str, **info: Any) -> None:
+        """Set Delta T_i directly (propagation), logging the change."""
+        self.delta[i] = np.asarray(delta, dtype=np.float64)
+        self._version[i] += 1
+        self.log(i, stage, rule, **info)
+
+    def log(self, i: InstanceId, stage: str, rule: str, **info: Any) -> None:
+        record: dict[str, Any] = {"instance": int(i), "branch": self.branch, "stage": stage, "rule": rule}
+        for key, value in info.items():
+            if isinstance(value, np.ndarray):
+                value = _round(value) if value.ndim == 2 else np.round(value, 9).tolist()
+            elif isinstance(value, np.floating | float):
+                value = round(float(value), 9)
+            record[key] = value
+        self.operations.append(record)
+
+    def skip(self, i: InstanceId, stage: str, reason: str) -> None:
+        """Record that a rule did not apply to object i, and why."""
+        self.log(i, stage, "skip", reason=reason)

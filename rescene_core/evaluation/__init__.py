@@ -1,0 +1,1 @@
+"""Evaluation of runs: structural metrics (``structural``) and the metrics against ground truth."""
