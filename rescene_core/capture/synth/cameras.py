@@ -1,0 +1,172 @@
+"""The camera walk of a synthetic capture: a loop through the room's free space at 1.3-1.7 m looking
+across the room, close-ups that crop large objects, and distant views from the corners."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import MultiPolygon, Point
+from shapely.ops import unary_union
+
+from rescene_core.capture.synth.layout import Layout
+from rescene_core.capture.synth.presets import SynthPreset
+from rescene_core.records import Relation, Root
+
+CLOSEUP_LABELS = frozenset({"bed", "sofa", "wardrobe", "dining table", "desk", "chair", "cabinet", "bookshelf"})
+"""Categories large enough that a close-up crops them."""
+
+
+@dataclass(frozen=True)
+class CameraPlan:
+    """Camera poses and why each was taken: kind[t] is 'walk', 'closeup' or 'distant'.
+
+    world_from_cam: float64 [T, 4, 4] OpenCV axes. K: float64 [3, 3]. target_object[t]: the object a
+    close-up crops (0 otherwise).
+    """
+
+    world_from_cam: NDArray[np.float64]
+    K: NDArray[np.float64]
+    kinds: tuple[str, ...]
+    target_object: tuple[int, ...]
+
+
+def intrinsics(preset: SynthPreset) -> NDArray[np.float64]:
+    f = preset.width / 2 / np.tan(np.radians(preset.hfov_deg) / 2)
+    return np.array([[f, 0, preset.width / 2], [0, f, preset.height / 2], [0, 0, 1.0]])
+
+
+def look_at(eye: NDArray, target: NDArray, roll: float = 0.0) -> NDArray[np.float64]:
+    """world_from_cam (OpenCV axes: x right, y down, z forward) of a camera at ``eye`` looking at ``target``."""
+    z = np.asarray(target, float) - np.asarray(eye, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    if np.linalg.norm(x) < 1e-6:
+        x = np.array([1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    if roll:
+        c, s = np.cos(roll), np.sin(roll)
+        x, y = c * x + s * y, -s * x + c * y
+    out = np.eye(4)
+    out[:3, :3] = np.stack([x, y, z], axis=1)
+    out[:3, 3] = eye
+    return out
+
+
+def _inside_object(lay: Layout, p: NDArray, margin: float) -> bool:
+    pt = Point(p[0], p[1])
+    for o in lay.objects:
+        if o.z0 - margin <= p[2] <= o.z1 + margin and o.footprint.buffer(margin).contains(pt):
+            return True
+    return False
+
+
+def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> CameraPlan:
+    """Plan ``preset.frames`` cameras over the furnished room (see module docstring)."""
+    room = lay.room
+    n = preset.frames
+    n_close = int(round(n * preset.closeup_fraction))
+    n_far = int(round(n * preset.distant_fraction))
+    n_walk = n - n_close - n_far
+    floor_objs = [o.footprint for o in lay.objects if o.relation == Relation.RESTS_ON and o.parent == Root.FLOOR]
+    free = room.polygon.buffer(-0.45)
+    if floor_objs:
+        free = free.difference(unary_union(floor_objs).buffer(0.3))
+    if isinstance(free, MultiPolygon):
+        free = max(free.geoms, key=lambda g: g.area)
+    loop_region = free.buffer(-0.3) if free.buffer(-0.3).area > 0.5 else free
+    if isinstance(loop_region, MultiPolygon):
+        loop_region = max(loop_region.geoms, key=lambda g: g.area)
+    if loop_region.is_empty:
+        loop_region = room.polygon.buffer(-0.6)
+    ring = loop_region.exterior
+    centre = np.array(room.polygon.centroid.coords[0])
+    phase0 = float(rng.uniform(0, 1))
+
+    poses, kinds, targets = [], [], []
+    walk_s = []
+    for k in range(n_walk):
+        s = (phase0 + k / n_walk) % 1.0
+        p = np.array(ring.interpolate(s, normalized=True).coords[0])
+        h = float(
+            np.clip(
+                np.mean(preset.walk_height) + 0.15 * np.sin(2 * np.pi * 3 * s) + rng.normal(0, 0.04),
+                *preset.walk_height,
+            )
+        )
+        to_c = centre - p
+        yaw = np.arctan2(to_c[1], to_c[0]) + np.radians(55) * np.sin(2 * np.pi * 5 * s + 1.0) + rng.normal(0, 0.1)
+        pitch = np.radians(-14 + rng.normal(0, 5))
+        eye = np.array([p[0], p[1], h])
+        fwd = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), np.sin(pitch)])
+        poses.append(look_at(eye, eye + fwd, rng.normal(0, 0.03)))
+        kinds.append("walk")
+        targets.append(0)
+        walk_s.append(s)
+
+    big = [o for o in lay.objects if o.label in CLOSEUP_LABELS]
+    inner = room.polygon.buffer(-0.12)
+    made, tries = 0, 0
+    while made < n_close and big and tries < 60 * n_close:
+        tries += 1
+        obj = big[(made + tries) % len(big)] if tries % 3 else big[int(rng.integers(len(big)))]
+        (x0, y0, _), (x1, y1, z1) = obj.model.bounds
+        local = np.array([rng.uniform(x0, x1), y1, rng.uniform(0.05, 0.95) * z1, 1.0])
+        if rng.uniform() < 0.3:  # a side instead of the front
+            local[0], local[1] = (x0 if rng.uniform() < 0.5 else x1), rng.uniform(y0, y1)
+        target = (obj.world_from_object @ local)[:3]
+        out = obj.world_from_object[:3, :3] @ np.array([0.0, 1.0, 0.0])
+        if local[1] != y1:
+            out = obj.world_from_object[:3, :3] @ np.array([np.sign(local[0] - (x0 + x1) / 2), 0.0, 0.0])
+        dist = rng.uniform(*preset.closeup_distance)
+        eye = target + out * dist + np.array([rng.normal(0, 0.15), rng.normal(0, 0.15), rng.uniform(0.15, 0.6)])
+        eye[2] = float(np.clip(eye[2], 0.5, room.height - 0.3))
+        if not inner.contains(Point(eye[0], eye[1])) or _inside_object(lay, eye, 0.08):
+            continue
+        poses.append(look_at(eye, target, rng.normal(0, 0.03)))
+        kinds.append("closeup")
+        targets.append(obj.object_id)
+        made += 1
+
+    corners = np.array(room.polygon.buffer(-0.3, join_style=2).exterior.coords[:-1])
+    made, tries = 0, 0
+    while made < n_far and tries < 40 * max(1, n_far):
+        tries += 1
+        c = corners[int(rng.integers(len(corners)))]
+        eye = np.array([c[0], c[1], rng.uniform(1.55, 1.7)])
+        if _inside_object(lay, eye, 0.05):
+            continue
+        far = centre + (centre - c) * rng.uniform(0.0, 0.6)
+        target = np.array([far[0], far[1], rng.uniform(0.4, 0.9)])
+        poses.append(look_at(eye, target, rng.normal(0, 0.02)))
+        kinds.append("distant")
+        targets.append(0)
+        made += 1
+
+    # a real capture is one sequence: put each extra view next to the nearest walk position
+    while len(poses) < n:  # close-ups or distant views that found no free spot become walk frames
+        s = float(rng.uniform(0, 1))
+        p = np.array(ring.interpolate(s, normalized=True).coords[0])
+        eye = np.array([p[0], p[1], float(rng.uniform(*preset.walk_height))])
+        poses.append(look_at(eye, np.array([centre[0], centre[1], 0.8])))
+        kinds.append("walk")
+        targets.append(0)
+        walk_s.append(s)
+    walk_xy = np.array([pp[:2, 3] for pp, k in zip(poses, kinds) if k == "walk"])
+    walk_order = np.array(walk_s)
+    keys = []
+    for pp, kind in zip(poses, kinds):
+        if kind == "walk":
+            keys.append((float(walk_order[len([1 for q in keys if q[2] == 0])]), 0.0, 0))
+        else:
+            j = int(np.argmin(np.linalg.norm(walk_xy - pp[:2, 3], axis=1)))
+            keys.append((float(walk_order[j]), 1.0, 1))
+    order = sorted(range(len(poses)), key=lambda i: (keys[i][0], keys[i][1], i))
+    return CameraPlan(
+        world_from_cam=np.stack([poses[i] for i in order]),
+        K=intrinsics(preset),
+        kinds=tuple(kinds[i] for i in order),
+        target_object=tuple(targets[i] for i in order),
+    )

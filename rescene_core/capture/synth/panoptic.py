@@ -1,0 +1,167 @@
+"""What a panoptic multi-view reconstruction would output, with its typical errors (dialled by a preset).
+
+Per frame: depth noise growing with distance and dropouts, label noise in a band along mask boundaries,
+now and then one mask drifting onto a neighbouring object. Per object (decided once, so they hold in every
+frame): a split into two instances, a small object missed altogether, a wrong label.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from rescene_core.capture.synth.presets import SynthPreset
+
+
+@dataclass
+class FrameErrors:
+    """Errors applied to one frame (for the capture's attrs and for tests)."""
+
+    drift: list[dict] = field(default_factory=list)
+    boundary_pixels: int = 0
+
+
+def depth_with_noise(depth: NDArray[np.float32], preset: SynthPreset, rng: np.random.Generator) -> NDArray[np.float32]:
+    """Noisy metric depth [H, W]: sigma(z) = base + quadratic * z^2, plus random dropouts (0 = invalid)."""
+    sigma = preset.depth_noise_base + preset.depth_noise_quadratic * depth.astype(np.float32) ** 2
+    noisy = depth + rng.standard_normal(depth.shape, dtype=np.float32) * sigma
+    valid = depth > 0
+    if preset.depth_dropout > 0:
+        valid &= rng.random(depth.shape, dtype=np.float32) >= preset.depth_dropout
+    return np.where(valid & (noisy > 0), noisy, 0.0).astype(np.float32)
+
+
+def boundary_noise(
+    ids: NDArray[np.int32], preset: SynthPreset, rng: np.random.Generator
+) -> tuple[NDArray[np.int32], int]:
+    """Labels in a band along boundaries take a random neighbour's label with ``mask_boundary_prob``."""
+    r = max(1, int(round(preset.mask_boundary_px * ids.shape[1] / 640)))
+    if preset.mask_boundary_prob <= 0 or preset.mask_boundary_px <= 0:
+        return ids, 0
+    size = 2 * r + 1
+    band = ndimage.maximum_filter(ids, size=size) != ndimage.minimum_filter(ids, size=size)
+    ys, xs = np.nonzero(band)
+    pick = rng.random(len(ys)) < preset.mask_boundary_prob
+    ys, xs = ys[pick], xs[pick]
+    dy = rng.integers(-r, r + 1, len(ys))
+    dx = rng.integers(-r, r + 1, len(ys))
+    h, w = ids.shape
+    out = ids.copy()
+    out[ys, xs] = ids[np.clip(ys + dy, 0, h - 1), np.clip(xs + dx, 0, w - 1)]
+    return out, int((out != ids).sum())
+
+
+def shift(mask: NDArray[np.bool_], dy: int, dx: int) -> NDArray[np.bool_]:
+    """The boolean image shifted by (dy, dx) pixels, padding with False."""
+    h, w = mask.shape
+    out = np.zeros_like(mask)
+    ys, yd = (slice(0, h - dy), slice(dy, h)) if dy >= 0 else (slice(-dy, h), slice(0, h + dy))
+    xs, xd = (slice(0, w - dx), slice(dx, w)) if dx >= 0 else (slice(-dx, w), slice(0, w + dx))
+    out[yd, xd] = mask[ys, xs]
+    return out
+
+
+def drift(
+    ids: NDArray[np.int32],
+    object_ids: set[int],
+    preset: SynthPreset,
+    rng: np.random.Generator,
+    min_pixels: int,
+) -> tuple[NDArray[np.int32], dict | None]:
+    """With ``drift_frame_prob``, one object mask slides onto a neighbouring object's pixels.
+
+    Returns the new ids and the event ({"instance", "onto", "pixels"}) or None.
+    """
+    if rng.random() >= preset.drift_frame_prob:
+        return ids, None
+    counts = np.bincount(ids.ravel())
+    visible = [int(i) for i in np.flatnonzero(counts >= min_pixels) if int(i) in object_ids]
+    if len(visible) < 2:
+        return ids, None
+    d = max(2, int(round(preset.drift_px * ids.shape[1] / 640)))
+    h, w = ids.shape
+    flat = ids.ravel()
+    cy = np.bincount(flat, weights=np.repeat(np.arange(h, dtype=np.float64), w), minlength=len(counts))
+    cx = np.bincount(flat, weights=np.tile(np.arange(w, dtype=np.float64), h), minlength=len(counts))
+    centre = np.stack([cy, cx], 1) / np.maximum(counts, 1)[:, None]
+    for k in rng.permutation(len(visible))[:3]:
+        a = visible[int(k)]
+        ma = ids == a
+        best = None
+        for b in visible:
+            if b == a:
+                continue
+            v = centre[b] - centre[a]
+            v = v / max(np.linalg.norm(v), 1e-9)
+            moved = shift(ma, int(round(v[0] * d)), int(round(v[1] * d)))
+            onto = moved & (ids == b)
+            n = int(onto.sum())
+            if n >= max(10, min_pixels // 4) and (best is None or n > best[1]):
+                best = (b, n, onto)
+        if best is not None:
+            out = ids.copy()
+            out[best[2]] = a
+            return out, {"instance": a, "onto": best[0], "pixels": best[1]}
+    return ids, None
+
+
+@dataclass
+class Accumulator:
+    """Fuses masked, noisy depth of many frames into per-instance voxel-averaged point clouds.
+
+    voxel_of: float64 [max_id + 1] voxel size (m) per instance id.
+    """
+
+    voxel_of: NDArray[np.float64]
+    stride: int
+    batch: int = 16
+    _keys: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    _sums: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 7)))
+    _pending: list = field(default_factory=list)
+
+    def add(self, depth: NDArray, ids: NDArray, rgb: NDArray, K: NDArray, world_from_cam: NDArray) -> None:
+        s = self.stride
+        d, m, c = depth[::s, ::s], ids[::s, ::s], rgb[::s, ::s]
+        vs, us = np.nonzero((d > 0) & (m > 0))
+        z = d[vs, us].astype(np.float64)
+        u = us * s + 0.5
+        v = vs * s + 0.5
+        pc = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=1)
+        pw = pc @ world_from_cam[:3, :3].T + world_from_cam[:3, 3]
+        inst = m[vs, us].astype(np.int64)
+        q = np.floor(pw / self.voxel_of[inst][:, None]).astype(np.int64) + 32768
+        key = (inst << 48) | (q[:, 0] << 32) | (q[:, 1] << 16) | q[:, 2]
+        vals = np.concatenate([pw, c[vs, us].astype(np.float64), np.ones((len(z), 1))], axis=1)
+        self._pending.append((key, vals))
+        if len(self._pending) >= self.batch:
+            self._reduce()
+
+    def _reduce(self) -> None:
+        if not self._pending:
+            return
+        keys = np.concatenate([self._keys] + [k for k, _ in self._pending])
+        vals = np.concatenate([self._sums] + [v for _, v in self._pending])
+        self._pending = []
+        uniq, inv = np.unique(keys, return_inverse=True)
+        sums = np.stack([np.bincount(inv, weights=vals[:, j], minlength=len(uniq)) for j in range(7)], axis=1)
+        self._keys, self._sums = uniq, sums
+
+    def clouds(self) -> dict[int, tuple[NDArray[np.float32], NDArray[np.uint8]]]:
+        """Instance id -> (points float32 [n, 3] world metres, colours uint8 [n, 3]), voxel means."""
+        self._reduce()
+        inst = (self._keys >> 48).astype(np.int64)
+        mean = self._sums[:, :6] / self._sums[:, 6:7]
+        out = {}
+        bounds = np.flatnonzero(np.diff(inst)) + 1
+        for chunk in np.split(np.arange(len(inst)), bounds):
+            if len(chunk) == 0:
+                continue
+            i = int(inst[chunk[0]])
+            out[i] = (
+                mean[chunk, :3].astype(np.float32),
+                np.clip(np.round(mean[chunk, 3:6]), 0, 255).astype(np.uint8),
+            )
+        return out
