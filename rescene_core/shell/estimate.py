@@ -1,0 +1,264 @@
+"""Room-shell estimation: the gravity-aligned floor plane, vertical wall planes and the floor polygon.
+
+World frame: metres, z up (the capture's ``up: +z``). The floor plane is snapped to ``z = h`` (normal +z),
+and wall normals are made exactly horizontal and point into the room (towards the cameras, which stand
+inside it).
+
+With structural labels (instances labelled ``floor`` / ``wall`` with ``structural=True``) the planes are fitted
+to those instances' points. Without them the floor is the lowest dense horizontal slab of all points and
+walls are vertical RANSAC planes (Open3D ``segment_plane``) that are tall enough and have almost no points
+behind them (furniture faces have the room behind them). The floor polygon is the intersection of the
+walls' inner half-planes with the convex hull of the floor points when the room is convex (the floor
+points lie inside that intersection), which also closes an open side along the floor's edge; otherwise the
+floor's concave hull with the region behind each wall segment cut away.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import open3d as o3d
+import shapely
+from numpy.typing import NDArray
+from shapely.geometry import MultiPoint, Polygon, box
+from shapely.geometry.polygon import orient
+
+from rescene_core.capture import Capture
+from rescene_core.config import ShellConfig
+from rescene_core.records import Plane, RoomShell, WallPlane
+
+log = logging.getLogger(__name__)
+
+
+class ShellError(ValueError):
+    """The capture has too little geometry for a room shell (the message says what is missing)."""
+
+
+@dataclass
+class _Wall:
+    normal: NDArray[np.float64]  # [2] horizontal unit normal into the room
+    offset: float
+    s_range: tuple[float, float]  # extent along the tangent (-n_y, n_x), metres
+    support: int
+
+    @property
+    def tangent(self) -> NDArray[np.float64]:
+        return np.array([-self.normal[1], self.normal[0]])
+
+    def endpoints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        foot = -self.offset * self.normal
+        return foot + self.s_range[0] * self.tangent, foot + self.s_range[1] * self.tangent
+
+
+def _downsample(points: NDArray, voxel: float) -> NDArray[np.float64]:
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, np.float64)))
+    if voxel > 0:
+        pcd = pcd.voxel_down_sample(voxel)
+    return np.asarray(pcd.points)
+
+
+def _segment(points: NDArray[np.float64], config: ShellConfig) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    plane, inliers = pcd.segment_plane(config.ransac_distance, 3, config.ransac_iterations)
+    return np.asarray(plane, np.float64), np.asarray(inliers, np.int64)
+
+
+def _floor_height_labelled(points: NDArray[np.float64], config: ShellConfig) -> float:
+    if len(points) >= 3:
+        plane, inl = _segment(points, config)
+        if abs(plane[2]) / np.linalg.norm(plane[:3]) >= np.cos(np.radians(config.vertical_tolerance_deg)):
+            return float(np.median(points[inl, 2]))
+        log.warning("floor points are not horizontal (normal %s); using their median height", plane[:3])
+    return float(np.median(points[:, 2]))
+
+
+def _floor_height_unlabelled(points: NDArray[np.float64], config: ShellConfig) -> float:
+    """Lowest height bin holding >= floor_min_fraction of the densest bin, refined by a plane fit."""
+    z = points[:, 2]
+    step = config.ransac_distance
+    edges = np.arange(z.min(), z.max() + 2 * step, step)
+    counts, edges = np.histogram(z, bins=edges)
+    dense = np.flatnonzero(counts >= config.floor_min_fraction * counts.max())
+    z0 = 0.5 * (edges[dense[0]] + edges[dense[0] + 1])
+    slab = points[np.abs(z - z0) <= 2 * step]
+    return _floor_height_labelled(slab, config) if len(slab) >= 3 else float(z0)
+
+
+def _orient(normal: NDArray, offset: float, inside: NDArray[np.float64]) -> tuple[NDArray, float]:
+    """Flip a horizontal line's normal so the reference points ``inside`` [k, 2] lie on its positive side."""
+    if len(inside) and np.median(inside @ normal + offset) < 0:
+        return -normal, -offset
+    return normal, offset
+
+
+def _vertical_planes(
+    points: NDArray[np.float64],
+    config: ShellConfig,
+    inside: NDArray[np.float64],
+    outer_check: NDArray[np.float64] | None,
+) -> list[_Wall]:
+    """Vertical planes by repeated RANSAC. outer_check: all points [m, 2]; when given, a plane is a wall only if
+    it is tall enough and at most ``wall_max_outside_fraction`` of them lie behind it."""
+    walls: list[_Wall] = []
+    remaining = points
+    cos_tol = np.sin(np.radians(config.vertical_tolerance_deg))
+    for _ in range(config.max_walls * 4):
+        if len(remaining) < max(config.min_wall_points, 3) or len(walls) >= config.max_walls:
+            break
+        plane, inl = _segment(remaining, config)
+        if len(inl) < config.min_wall_points:
+            break
+        n = plane[:3] / np.linalg.norm(plane[:3])
+        if abs(n[2]) <= cos_tol:
+            nh = n[:2] / np.linalg.norm(n[:2])
+            xy = remaining[:, :2]
+            offset = -float(np.median(xy[inl] @ nh))
+            near = np.abs(xy @ nh + offset) <= config.ransac_distance
+            nh, offset = _orient(nh, offset, inside)
+            pts_in = remaining[near]
+            ok = near.sum() >= config.min_wall_points
+            if ok and outer_check is not None:
+                height = np.percentile(pts_in[:, 2], 98) - np.percentile(pts_in[:, 2], 2)
+                behind = np.mean(outer_check @ nh + offset < -config.ransac_distance)
+                ok = height >= config.wall_min_height and behind <= config.wall_max_outside_fraction
+            if ok:
+                s = pts_in[:, :2] @ np.array([-nh[1], nh[0]])
+                walls.append(
+                    _Wall(nh, offset, (float(np.percentile(s, 1)), float(np.percentile(s, 99))), int(near.sum()))
+                )
+            remaining = remaining[~near]
+        else:
+            mask = np.ones(len(remaining), bool)
+            mask[inl] = False
+            remaining = remaining[mask]
+    return walls
+
+
+def _merge(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
+    merged: list[_Wall] = []
+    cos_merge = np.cos(np.radians(config.merge_angle_deg))
+    for w in sorted(walls, key=lambda w: -w.support):
+        for m in merged:
+            if float(w.normal @ m.normal) >= cos_merge and abs(w.offset - m.offset) <= 2 * config.ransac_distance:
+                a, b = w.endpoints()
+                s = [float(a @ m.tangent), float(b @ m.tangent)]
+                m.s_range = (min(m.s_range[0], *s), max(m.s_range[1], *s))
+                m.support += w.support
+                break
+        else:
+            merged.append(w)
+    return merged
+
+
+def _largest(geom) -> Polygon | None:
+    if geom.is_empty:
+        return None
+    if isinstance(geom, Polygon):
+        return geom
+    polys = [g for g in getattr(geom, "geoms", []) if isinstance(g, Polygon)]
+    return max(polys, key=lambda p: p.area) if polys else None
+
+
+def _polygon(floor_xy: NDArray[np.float64], all_xy: NDArray[np.float64], walls: list[_Wall], config: ShellConfig):
+    base_xy = floor_xy if len(floor_xy) >= 3 else all_xy
+    hull = MultiPoint(base_xy).convex_hull
+    lo, hi = all_xy.min(axis=0), all_xy.max(axis=0)
+    reach = float(np.linalg.norm(hi - lo)) + 1.0
+    frame = box(*(lo - reach), *(hi + reach))
+    poly = None
+    if walls:
+        inner = frame
+        for w in walls:
+            t = w.tangent
+            foot = -w.offset * w.normal
+            half = Polygon(
+                [
+                    foot - 3 * reach * t,
+                    foot + 3 * reach * t,
+                    foot + 3 * reach * t + 3 * reach * w.normal,
+                    foot - 3 * reach * t + 3 * reach * w.normal,
+                ]
+            )
+            inner = inner.intersection(half)
+        inside = shapely.contains_xy(inner.buffer(config.ransac_distance), base_xy[:, 0], base_xy[:, 1])
+        if not inner.is_empty and inside.mean() >= 1.0 - config.wall_max_outside_fraction:
+            poly = _largest(inner.intersection(hull.buffer(config.ransac_distance)))
+    if poly is None:
+        poly = _largest(shapely.concave_hull(MultiPoint(base_xy), ratio=config.polygon_concave_ratio)) or _largest(hull)
+        for w in walls:
+            a, b = w.endpoints()
+            t = w.tangent
+            margin = config.ransac_distance * 2
+            behind = Polygon(
+                [a - margin * t, b + margin * t, b + margin * t - reach * w.normal, a - margin * t - reach * w.normal]
+            )
+            cut = _largest(poly.difference(behind)) if poly is not None else None
+            poly = cut or poly
+    if poly is None or poly.area <= 0:
+        raise ShellError("cannot form a floor polygon: the floor points span no area")
+    poly = _largest(poly.simplify(config.polygon_simplify)) or poly
+    poly = orient(poly, 1.0)
+    return tuple((float(x), float(y)) for x, y in list(poly.exterior.coords)[:-1])
+
+
+def estimate_shell(capture: Capture, config: ShellConfig | None = None) -> RoomShell:
+    """The room shell of a capture (see the module docstring). Raises ShellError when there are no points."""
+    config = config or ShellConfig()
+    o3d.utility.random.seed(config.seed)
+    points, point_ids = capture.all_points()
+    finite = np.isfinite(points).all(axis=1)
+    points, point_ids = points[finite].astype(np.float64), point_ids[finite]
+    if len(points) < 3:
+        raise ShellError(f"{capture.path}: the capture has {len(points)} finite instance points; a shell needs a floor")
+    by_label: dict[str, list[int]] = {}
+    for inst in capture.instances:
+        if inst.structural:
+            by_label.setdefault(inst.label, []).append(int(inst.id))
+    cams = capture.world_from_cam[:, :3, 3]
+    cams = cams[np.isfinite(cams).all(axis=1)]
+    thin = _downsample(points, config.sample_voxel)
+
+    floor_pts = points[np.isin(point_ids, by_label.get("floor", []))]
+    if len(floor_pts) >= 3:
+        floor_z = _floor_height_labelled(_downsample(floor_pts, config.sample_voxel), config)
+        floor_xy = floor_pts[:, :2]
+        source = "labels"
+    else:
+        floor_z = _floor_height_unlabelled(thin, config)
+        floor_xy = thin[np.abs(thin[:, 2] - floor_z) <= config.ransac_distance, :2]
+        source = "points"
+    inside = cams[:, :2] if len(cams) else floor_xy.mean(axis=0, keepdims=True)
+
+    wall_ids = by_label.get("wall", [])
+    walls: list[_Wall] = []
+    if wall_ids:
+        for wid in wall_ids:
+            wp = points[point_ids == wid]
+            if len(wp) >= 3:
+                walls += _vertical_planes(_downsample(wp, config.sample_voxel), config, inside, None)
+    else:
+        above = thin[thin[:, 2] > floor_z + 3 * config.ransac_distance]
+        walls = _vertical_planes(above, config, inside, thin[:, :2])
+    walls = _merge(walls, config)[: config.max_walls]
+    polygon = _polygon(floor_xy, points[:, :2], walls, config)
+
+    ceiling_pts = points[np.isin(point_ids, by_label.get("ceiling", []))]
+    ceiling = float(np.median(ceiling_pts[:, 2]) - floor_z) if len(ceiling_pts) else None
+    log.info(
+        "room shell from %s: floor z=%.3f, %d walls, %d polygon vertices", source, floor_z, len(walls), len(polygon)
+    )
+    return RoomShell(
+        floor=Plane((0.0, 0.0, 1.0), -floor_z),
+        walls=tuple(
+            WallPlane(
+                k,
+                Plane((float(w.normal[0]), float(w.normal[1]), 0.0), float(w.offset)),
+                tuple(tuple(float(v) for v in p) for p in w.endpoints()),
+            )
+            for k, w in enumerate(walls)
+        ),
+        floor_polygon=polygon,
+        ceiling_height=ceiling,
+    )
