@@ -217,7 +217,7 @@ class ClipScorer:
                 by_frame.setdefault(int(t), []).append((inst_id, j))
         out = {i: np.zeros(len(f)) for i, f in requests.items()}
         batch: list[tuple[int, int, object]] = []
-        scale = float(self.model.logit_scale.exp()) if hasattr(self.model, "logit_scale") else 100.0
+        scale = float(self.model.logit_scale.detach().exp()) if hasattr(self.model, "logit_scale") else 100.0
 
         def flush() -> None:
             if not batch:
