@@ -1,0 +1,172 @@
+"""Scene export: ``scene/scene.glb`` (one named node per object plus the room shell), ``scene/scene.json``
+(poses, graph, shell, missing instances) and one mesh per object under ``scene/objects/``.
+
+docs/run-directory.md describes the files. Frames: world metres, z up; object meshes are stored in their
+asset frame and placed by ``world_from_asset`` (a Sim(3), float64 [4, 4]).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict
+
+from rescene_core.io import hash_file, write_bytes_atomic
+from rescene_core.records import Missing, RoomShell, SceneGraph
+
+SCENE_FORMAT = "rescene-scene"
+SCENE_VERSION = 1
+
+
+class ExportConfig(BaseModel):
+    """How the room shell is turned into geometry for viewing (objects are exported as they are)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+
+    wall_height: float = 2.5
+    """Height of the exported walls when the shell has no ceiling height (m)."""
+    wall_thickness: float = 0.05
+    """Thickness of the exported wall slabs, extruded outwards from the wall plane (m)."""
+    floor_thickness: float = 0.02
+    """Thickness of the exported floor slab, extruded downwards from the floor plane (m)."""
+
+
+@dataclass(frozen=True)
+class ExportObject:
+    """One object to export.
+
+    vertices: float64 [v, 3] in the asset frame. faces: int64 [f, 3].
+    world_from_asset: float64 [4, 4] Sim(3), the final (attached) pose.
+    registered_world_from_asset: float64 [4, 4], the pose before attachment, when known.
+    """
+
+    instance: int
+    label: str
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    world_from_asset: NDArray[np.float64]
+    registered_world_from_asset: NDArray[np.float64] | None = None
+
+    @property
+    def node_name(self) -> str:
+        return node_name(self.instance, self.label)
+
+
+def node_name(instance: int, label: str) -> str:
+    """Scene node name of an object: ``obj_<id>_<label>`` (label spaces become underscores)."""
+    return f"obj_{int(instance)}_{label.replace(' ', '_')}"
+
+
+def floor_height(shell: RoomShell) -> float:
+    """Height of the floor plane at the origin (m), from ``normal . x + offset = 0``."""
+    nz = shell.floor.normal[2]
+    return float(-shell.floor.offset / nz) if abs(nz) > 1e-9 else 0.0
+
+
+def shell_meshes(shell: RoomShell, config: ExportConfig) -> dict[str, trimesh.Trimesh]:
+    """Floor slab (the floor polygon extruded downwards) and one box per wall segment, world frame."""
+    from shapely.geometry import Polygon
+
+    out: dict[str, trimesh.Trimesh] = {}
+    z0 = floor_height(shell)
+    poly = Polygon(shell.floor_polygon)
+    if poly.is_valid and poly.area > 0:
+        slab = trimesh.creation.extrude_polygon(poly, config.floor_thickness)
+        slab.apply_translation([0.0, 0.0, z0 - config.floor_thickness])
+        out["shell_floor"] = slab
+    height = shell.ceiling_height if shell.ceiling_height else config.wall_height
+    for wall in shell.walls:
+        (x0, y0), (x1, y1) = wall.segment
+        length = float(np.hypot(x1 - x0, y1 - y0))
+        if length <= 0:
+            continue
+        box = trimesh.creation.box(extents=[length, config.wall_thickness, height])
+        yaw = float(np.arctan2(y1 - y0, x1 - x0))
+        normal = np.asarray(wall.plane.normal, dtype=np.float64)
+        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * config.wall_thickness / 2
+        world_from_box = trimesh.transformations.rotation_matrix(yaw, [0, 0, 1])
+        world_from_box[:3, 3] = centre
+        box.apply_transform(world_from_box)
+        out[f"shell_wall_{wall.id}"] = box
+    return out
+
+
+def build_scene(objects: Iterable[ExportObject], shell: RoomShell | None, config: ExportConfig) -> trimesh.Scene:
+    """A trimesh Scene: one node per object (mesh in the asset frame, node transform world_from_asset)
+    plus the shell meshes (already in the world frame)."""
+    scene = trimesh.Scene()
+    for obj in objects:
+        mesh = trimesh.Trimesh(np.asarray(obj.vertices), np.asarray(obj.faces), process=False)
+        scene.add_geometry(
+            mesh, node_name=obj.node_name, geom_name=obj.node_name, transform=np.asarray(obj.world_from_asset)
+        )
+    if shell is not None:
+        for name, mesh in shell_meshes(shell, config).items():
+            scene.add_geometry(mesh, node_name=name, geom_name=name)
+    return scene
+
+
+def export_scene(
+    out_dir: str | Path,
+    objects: list[ExportObject],
+    shell: RoomShell | None,
+    graph: SceneGraph | None,
+    missing: Iterable[Missing],
+    config: ExportConfig,
+    extra: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Write scene.glb, scene.json and objects/<node>.glb under ``out_dir``; returns {file: sha256}.
+
+    extra: additional top-level fields for scene.json (e.g. the capture and the backends that ran).
+    """
+    out_dir = Path(out_dir)
+    hashes: dict[str, str] = {}
+    entries = []
+    parents = graph.parent_of() if graph is not None else {}
+    for obj in sorted(objects, key=lambda o: o.instance):
+        rel = f"objects/{obj.node_name}.glb"
+        mesh = trimesh.Trimesh(np.asarray(obj.vertices), np.asarray(obj.faces), process=False)
+        write_bytes_atomic(out_dir / rel, mesh.export(file_type="glb"))
+        hashes[rel] = hash_file(out_dir / rel)
+        edge = parents.get(obj.instance)
+        m = np.asarray(obj.world_from_asset, dtype=np.float64)
+        entries.append(
+            {
+                "instance": int(obj.instance),
+                "label": obj.label,
+                "node": obj.node_name,
+                "mesh": rel,
+                "world_from_asset": m.tolist(),
+                "scale": float(np.cbrt(abs(np.linalg.det(m[:3, :3])))),
+                "registered_world_from_asset": None
+                if obj.registered_world_from_asset is None
+                else np.asarray(obj.registered_world_from_asset).tolist(),
+                "parent": None if edge is None else edge.to_json()["parent"],
+                "relation": None if edge is None else edge.relation.value,
+            }
+        )
+    scene = build_scene(objects, shell, config)
+    write_bytes_atomic(out_dir / "scene.glb", scene.export(file_type="glb"))
+    hashes["scene.glb"] = hash_file(out_dir / "scene.glb")
+    doc = {
+        "format": SCENE_FORMAT,
+        "version": SCENE_VERSION,
+        "units": "m",
+        "up": "+z",
+        "objects": entries,
+        "graph": graph.to_json() if graph is not None else {"edges": []},
+        "shell": shell.to_json() if shell is not None else None,
+        "shell_nodes": sorted(shell_meshes(shell, config)) if shell is not None else [],
+        "missing": [m.to_json() for m in missing],
+        **(extra or {}),
+    }
+    write_bytes_atomic(out_dir / "scene.json", json.dumps(doc, indent=2).encode())
+    hashes["scene.json"] = hash_file(out_dir / "scene.json")
+    return hashes

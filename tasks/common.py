@@ -1,0 +1,230 @@
+"""What every ReScene task shares: references, the input-hash cache policy, retries and the run-log segment.
+
+A task's result is a *reference*: a small JSON dict naming the file it wrote under the run directory,
+that file's sha256, its status ("ok" or "missing") and a few numbers. The cache key of a task run is
+built from the content hashes of its input references, the hash of its config section and the code
+version of its stage (``tasks.stages.code_version``), so a changed input recomputes exactly what depends
+on it. Results are persisted as JSON (no pickles) under ``RUN/.prefect/results``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from prefect import task
+from prefect.cache_policies import CachePolicy
+from prefect.context import TaskRunContext
+from pydantic import BaseModel
+
+from rescene_core.io import hash_file, write_json_atomic
+from rescene_core.records import Missing
+from rescene_core.runlog import Segment
+from tasks.stages import code_version
+
+RESULTS_DIR = Path(".prefect") / "results"
+"""Persisted task results (JSON references) and cache records, relative to the run directory."""
+
+RETRIES = 3
+"""Retries of a task after a transient failure (a VLM timeout, a dropped connection)."""
+
+RETRY_DELAY_ENV = "RESCENE_RETRY_DELAY_S"
+"""Environment variable: base delay of the exponential retry backoff in seconds (default 2)."""
+
+
+# ---- errors --------------------------------------------------------------------------------------
+
+
+class TransientStageError(RuntimeError):
+    """A failure that may pass on its own (timeout, connection reset): retried with backoff."""
+
+    transient = True
+
+
+class BadInputError(ValueError):
+    """A failure caused by the input itself: retrying cannot help, so it is not retried."""
+
+    transient = False
+
+
+def is_transient(exc: BaseException) -> bool:
+    """Timeouts and connection errors are transient; everything else (bad input, bugs) is not."""
+    flag = getattr(exc, "transient", None)
+    if flag is not None:
+        return bool(flag)
+    if isinstance(exc, TimeoutError | ConnectionError):
+        return True
+    try:
+        import httpx
+
+        if isinstance(exc, httpx.TimeoutException | httpx.TransportError):
+            return True
+        if isinstance(exc, httpx.HTTPStatusError) and exc.response.status_code >= 500:
+            return True
+    except ImportError:  # pragma: no cover - httpx is a dependency
+        pass
+    return False
+
+
+def retry_transient(task_, task_run, state) -> bool:
+    """Prefect ``retry_condition_fn``: retry only when the task failed with a transient error."""
+    try:
+        state.result()
+    except BaseException as exc:  # noqa: BLE001 - the state carries whatever the task raised
+        return is_transient(exc)
+    return False
+
+
+def retry_delays(retries: int = RETRIES) -> list[float]:
+    """Exponential backoff: base, 2 x base, 4 x base ... seconds (base from RESCENE_RETRY_DELAY_S)."""
+    base = float(os.environ.get(RETRY_DELAY_ENV, "2"))
+    return [base * 2**k for k in range(retries)]
+
+
+# ---- references and cache keys -------------------------------------------------------------------
+
+
+def make_ref(
+    run_dir: str | Path,
+    rel: str,
+    kind: str,
+    item: int | None = None,
+    status: str = "ok",
+    numbers: dict[str, Any] | None = None,
+    missing: Missing | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
+    """Reference to the file ``rel`` under ``run_dir``: path, sha256, status, a few numbers."""
+    return {
+        "kind": kind,
+        "item": item,
+        "path": rel,
+        "sha256": hash_file(Path(run_dir) / rel),
+        "status": status,
+        "numbers": numbers or {},
+        "missing": missing.to_json() if missing is not None else None,
+        **extra,
+    }
+
+
+def ref_missing(ref: dict[str, Any]) -> Missing | None:
+    return Missing.from_json(ref["missing"]) if ref.get("missing") else None
+
+
+def digest(value: Any) -> Any:
+    """What of a task input goes into its cache key: content hashes of references, the hash of config
+    sections, and plain values as they are."""
+    if isinstance(value, BaseModel):
+        blob = json.dumps(value.model_dump(mode="json"), sort_keys=True)
+        return {"config": type(value).__name__, "sha256": hashlib.sha256(blob.encode()).hexdigest()[:16]}
+    if isinstance(value, dict):
+        if "sha256" in value and "path" in value:
+            return {"sha256": value["sha256"], "status": value.get("status")}
+        return {str(k): digest(v) for k, v in sorted(value.items())}
+    if isinstance(value, list | tuple):
+        return [digest(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    if value is None or isinstance(value, str | int | float | bool):
+        return value
+    raise TypeError(f"task input of type {type(value).__name__} cannot be part of a cache key; pass a reference")
+
+
+@dataclass
+class StageInputs(CachePolicy):
+    """Cache key = stage name + code version of the stage + digest of the inputs (see ``digest``)."""
+
+    stage: str = ""
+
+    def compute_key(
+        self, task_ctx: TaskRunContext, inputs: dict[str, Any], flow_parameters: dict[str, Any], **kwargs: Any
+    ) -> str | None:
+        blob = json.dumps(
+            {"stage": self.stage, "code": code_version(self.stage), "inputs": digest(inputs)}, sort_keys=True
+        )
+        return f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
+
+
+def stage_task(stage: str, retries: int = RETRIES, tags: tuple[str, ...] = ()):
+    """Decorator: a Prefect task of ``stage`` with the input-hash cache policy, JSON results, and
+    retries with backoff on transient errors only."""
+    return task(
+        name=stage,
+        cache_policy=StageInputs(stage=stage),
+        persist_result=True,
+        result_serializer="json",
+        retries=retries,
+        retry_delay_seconds=retry_delays(retries),
+        retry_jitter_factor=0.2,
+        retry_condition_fn=retry_transient,
+        tags=set(tags),
+    )
+
+
+# ---- execution: run-log segment, fault injection -------------------------------------------------
+
+
+def segment_name(stage: str, item: int | None) -> str:
+    return stage if item is None else f"{stage}-{int(item):06d}"
+
+
+@contextmanager
+def executing(run_dir: str | Path, stage: str, item: int | None = None) -> Iterator[Segment]:
+    """Context of one task execution: yields its run-log segment (replacing any earlier one), logs
+    start/end/error events with the elapsed seconds, applies injected faults, writes the segment."""
+    seg = Segment(Path(run_dir), segment_name(stage, item))
+    start = time.perf_counter()
+    seg.log("/task/events", {"stage": stage, "item": item, "event": "start", "seconds": 0.0, "status": "running"})
+    try:
+        inject_fault(run_dir, stage, item)
+        yield seg
+    except BaseException as exc:
+        seg.log(
+            "/task/events",
+            {
+                "stage": stage,
+                "item": item,
+                "event": "error",
+                "seconds": time.perf_counter() - start,
+                "status": "failed",
+                "error": f"{type(exc).__name__}: {exc}",
+            },
+        )
+        seg.close()
+        raise
+    seg.log(
+        "/task/events",
+        {"stage": stage, "item": item, "event": "end", "seconds": time.perf_counter() - start, "status": "ok"},
+    )
+    seg.close()
+
+
+FAULTS_FILE = "faults.json"
+"""Fault injection for tests and drills: ``RUN/faults.json`` = [{"stage", "item", "kind", "times"}].
+
+kind "transient" raises TransientStageError (retried), "bad_input" raises BadInputError (not retried);
+each fault fires ``times`` times in all (counted in RUN/.faults/), then clears."""
+
+
+def inject_fault(run_dir: str | Path, stage: str, item: int | None) -> None:
+    path = Path(run_dir) / FAULTS_FILE
+    if not path.exists():
+        return
+    for fault in json.loads(path.read_text()):
+        if fault.get("stage") != stage or fault.get("item") != item:
+            continue
+        counter = Path(run_dir) / ".faults" / f"{segment_name(stage, item)}.count"
+        fired = int(counter.read_text()) if counter.exists() else 0
+        if fired >= int(fault.get("times", 1)):
+            continue
+        write_json_atomic(counter, fired + 1)
+        kind = fault.get("kind", "transient")
+        message = f"injected {kind} fault in {stage} for item {item} ({fired + 1}/{fault.get('times', 1)})"
+        raise TransientStageError(message) if kind == "transient" else BadInputError(message)

@@ -1,0 +1,173 @@
+"""The one place where the pipeline calls the stage libraries.
+
+Each function here forwards to one ``rescene_core`` stage function. The import happens at call time,
+so a stage whose library module is not part of this build raises ``StageNotAvailable`` naming the
+module, instead of the pipeline silently skipping or faking it. Tests substitute these functions
+(monkeypatching this module) to exercise caching, retries and fan-out on their own.
+
+``code_version(stage)`` hashes the library sources a stage depends on; it is part of every cache key,
+so editing a stage's code recomputes that stage and what follows it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+from rescene_core.records import InstanceId
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+STAGE_MODULES: dict[str, tuple[str, ...]] = {
+    "shell": ("rescene_core.shell",),
+    "view": ("rescene_core.hierview",),
+    "keyframes": ("rescene_core.hierview",),
+    "asset": ("rescene_core.assets",),
+    "registration": ("rescene_core.registration", "rescene_core.assets"),
+    "relations": ("rescene_core.scenegraph",),
+    "fusion": ("rescene_core.scenegraph",),
+    "attachment": ("rescene_core.assembly",),
+    "snapshot": ("rescene_core.runlog",),
+    "export": ("rescene_core.export",),
+    "evaluation": ("rescene_core.evaluation",),
+}
+"""Stage name -> library packages whose source makes up the stage's code version."""
+
+COMMON_SOURCES: tuple[str, ...] = (
+    "rescene_core/records.py",
+    "rescene_core/io.py",
+    "rescene_core/geometry",
+    "rescene_core/capture/format.py",
+    "rescene_core/capture/validate.py",
+    "rescene_core/render",
+)
+"""Sources every stage depends on (records, geometry, capture reading, rendering)."""
+
+
+class StageNotAvailable(RuntimeError):
+    """A stage's library module is not part of this build; the message names the module."""
+
+    def __init__(self, stage: str, module: str, cause: BaseException | None = None):
+        self.stage = stage
+        self.module = module
+        detail = f" ({cause})" if cause else ""
+        super().__init__(f"stage {stage!r} is not available: its library module {module!r} cannot be imported{detail}")
+
+
+def _load(stage: str, module: str, name: str) -> Any:
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as err:
+        if err.name and (module == err.name or module.startswith(err.name + ".")):
+            raise StageNotAvailable(stage, module, err) from err
+        raise
+    try:
+        return getattr(mod, name)
+    except AttributeError as err:
+        raise StageNotAvailable(stage, f"{module}.{name}", err) from err
+
+
+def available(stage: str) -> bool:
+    """Whether every library package of ``stage`` can be found (without importing it)."""
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in STAGE_MODULES[stage])
+
+
+def _hash_paths(paths: list[Path]) -> str:
+    h = hashlib.sha256()
+    for root in paths:
+        files = sorted(root.rglob("*.py")) if root.is_dir() else ([root] if root.exists() else [])
+        if not files:
+            h.update(f"absent:{root.relative_to(REPO_ROOT)}".encode())
+        for f in files:
+            h.update(str(f.relative_to(REPO_ROOT)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+@cache
+def code_version(stage: str) -> str:
+    """Hash of the library sources of ``stage`` plus the common core (records, geometry, capture, render)."""
+    paths = [REPO_ROOT / p for p in COMMON_SOURCES]
+    paths += [REPO_ROOT / Path(*m.split(".")) for m in STAGE_MODULES[stage]]
+    paths.append(REPO_ROOT / "tasks" / "stages.py")
+    return _hash_paths(paths)
+
+
+# ---- the stage calls: one library function each -------------------------------------------------
+
+
+def estimate_shell(capture, config):
+    """rescene_core.shell.estimate_shell(capture, ShellConfig) -> RoomShell."""
+    return _load("shell", "rescene_core.shell", "estimate_shell")(capture, config)
+
+
+def select_views(capture, config, instance_ids):
+    """rescene_core.hierview.select_views(...) -> {instance id: ViewChoice | Missing}."""
+    return _load("view", "rescene_core.hierview", "select_views")(capture, config, instance_ids=instance_ids)
+
+
+def select_keyframes(capture, config):
+    """rescene_core.hierview.select_keyframes(capture, KeyFrameConfig) -> KeyFrames (frames, to_json())."""
+    return _load("keyframes", "rescene_core.hierview", "select_keyframes")(capture, config)
+
+
+def generate_asset(capture, view, config):
+    """rescene_core.assets.generate_asset(capture, ViewChoice, AssetConfig) -> Asset | Missing."""
+    return _load("asset", "rescene_core.assets", "generate_asset")(capture, view, config)
+
+
+def save_asset(path, asset) -> None:
+    """rescene_core.assets.save_asset(path.glb, Asset)."""
+    _load("asset", "rescene_core.assets", "save_asset")(path, asset)
+
+
+def load_asset(path, instance):
+    """rescene_core.assets.load_asset(path.glb, instance) -> Asset."""
+    return _load("asset", "rescene_core.assets", "load_asset")(path, instance)
+
+
+def register(asset, target, config):
+    """rescene_core.registration.register(Asset, InstancePoints, RegistrationConfig) -> Pose | Missing."""
+    return _load("registration", "rescene_core.registration", "register")(asset, target, config)
+
+
+def make_predictor(config):
+    """rescene_core.scenegraph.make_predictor(SceneGraphConfig) -> relation predictor."""
+    return _load("relations", "rescene_core.scenegraph", "make_predictor")(config)
+
+
+def predict_frame(capture, frame, shell, config, predictor):
+    """rescene_core.scenegraph.predict_frame(...) -> FramePrediction (to_json())."""
+    return _load("relations", "rescene_core.scenegraph", "predict_frame")(capture, frame, shell, config, predictor)
+
+
+def frame_prediction_from_json(data: dict):
+    """rescene_core.scenegraph.FramePrediction.from_json(dict) -> FramePrediction."""
+    return _load("fusion", "rescene_core.scenegraph", "FramePrediction").from_json(data)
+
+
+def fuse(predictions, capture, shell, config, missing):
+    """rescene_core.scenegraph.fuse(predictions, capture, shell, SceneGraphConfig, missing ids) -> SceneGraph."""
+    return _load("fusion", "rescene_core.scenegraph", "fuse")(predictions, capture, shell, config, missing)
+
+
+def assembly_object(instance: int, label: str, vertices, faces, world_from_asset):
+    """rescene_core.assembly.AssemblyObject for one registered instance."""
+    cls = _load("attachment", "rescene_core.assembly", "AssemblyObject")
+    return cls(
+        instance=InstanceId(int(instance)),
+        label=label,
+        vertices=vertices,
+        faces=faces,
+        world_from_asset=world_from_asset,
+    )
+
+
+def attach(objects, graph, shell, config):
+    """rescene_core.assembly.attach(objects, SceneGraph, RoomShell, AttachmentConfig) -> Layout."""
+    return _load("attachment", "rescene_core.assembly", "attach")(objects, graph, shell, config)

@@ -1,0 +1,38 @@
+"""Flow tests share one Prefect test server (``prefect_test_harness``) for the whole session."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+os.environ.setdefault("RESCENE_RETRY_DELAY_S", "0.2")
+
+
+@pytest.fixture(scope="session")
+def prefect_server():
+    """A throwaway Prefect API (SQLite in a temp dir) for every flow test of the session."""
+    from prefect.testing.utilities import prefect_test_harness
+
+    with prefect_test_harness(server_startup_timeout=60):
+        yield
+
+
+@pytest.fixture
+def fake_stages(monkeypatch):
+    """Replace every stage library call in ``tasks.stages`` by the counting fakes of tests/flows/fakes.py."""
+    from tasks import stages
+    from tests.flows import fakes
+
+    for name, fn in fakes.STAGE_FAKES.items():
+        monkeypatch.setattr(stages, name, fn)
+    fakes.CALLS.clear()
+    return fakes.CALLS
+
+
+@pytest.fixture(scope="session")
+def box_capture_path(tmp_path_factory):
+    from tests.flows.fakes import box_capture
+
+    return box_capture(tmp_path_factory.mktemp("capture") / "boxes.zarr")

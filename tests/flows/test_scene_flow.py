@@ -1,0 +1,123 @@
+"""The `rescene` flow with the stage libraries replaced by counting fakes: run directory, caching,
+per-instance failures, retries, run log and artifacts."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from rescene_core.config import RunConfig
+from rescene_core.runlog import read_messages
+from tasks.common import FAULTS_FILE
+
+
+def _run(capture, run_dir, config=None):
+    from flows.scene import run_flow
+
+    return run_flow(capture, run_dir, config or RunConfig())
+
+
+def test_flow_writes_run_directory_and_caches(prefect_server, fake_stages, box_capture_path, tmp_path):
+    run = tmp_path / "run"
+    state = _run(box_capture_path, run)
+    assert state.is_completed(), state.message
+    for rel in ("manifest.json", "config.yaml", "shell.json", "keyframes.json", "layout.json", "logs/run.mcap",
+                "scene/scene.glb", "scene/scene.json", "scenegraph/graph.json"):  # fmt: skip
+        assert (run / rel).exists(), rel
+    for i in (2, 3, 4):
+        for name in ("view.json", "asset.json", "asset.glb", "pose.json"):
+            assert (run / "instances" / str(i) / name).exists()
+    first = dict(fake_stages)
+    assert first == {"shell": 1, "view": 3, "asset": 3, "registration": 3, "keyframes": 1, "relations": 2,
+                     "fusion": 1, "attachment": 1}  # fmt: skip
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["state"] == "Completed" and manifest["missing"] == []
+    assert manifest["stages"]["registration"] == {"completed": 3}
+
+    # a second identical run executes no stage
+    fake_stages.clear()
+    state = _run(box_capture_path, run)
+    assert state.is_completed()
+    assert sum(fake_stages.values()) == 0, dict(fake_stages)
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["stages"]["registration"] == {"cached": 3}
+    assert manifest["stages"]["export"] == {"cached": 1}
+
+    # one registration parameter changed: registration and what follows re-run, nothing before it
+    fake_stages.clear()
+    config = RunConfig().with_overrides(["registration.scale_max=1.2"])
+    state = _run(box_capture_path, run, config)
+    assert state.is_completed()
+    # fusion takes the predictions and the missing set, not the poses: it stays cached
+    assert dict(fake_stages) == {"registration": 3, "attachment": 1}
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["stages"]["view"] == {"cached": 3} and manifest["stages"]["asset"] == {"cached": 3}
+    assert manifest["stages"]["fusion"] == {"cached": 1} and manifest["stages"]["export"] == {"completed": 1}
+    scene = json.loads((run / "scene/scene.json").read_text())
+    assert [o["node"] for o in scene["objects"]] == ["obj_2_box", "obj_3_box", "obj_4_box"]
+    assert scene["objects"][0]["scale"] == pytest.approx(0.6 * 1.2, rel=0.05)
+
+
+def test_run_log_has_every_channel(prefect_server, fake_stages, box_capture_path, tmp_path):
+    run = tmp_path / "run"
+    assert _run(box_capture_path, run).is_completed()
+    messages = read_messages(run / "logs/run.mcap")
+    topics = {t for t, _, _ in messages}
+    for topic in ("/flow/events", "/flow/tasks", "/task/events", "/hierview/view_scores", "/registration/gates",
+                  "/scenegraph/frame_predictions", "/scenegraph/fusion", "/assembly/operations", "/metrics",
+                  "/scene/after_registration", "/scene/after_attachment"):  # fmt: skip
+        assert topic in topics, topic
+    from mcap.reader import make_reader
+
+    with open(run / "logs/run.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    names = {s.name for s in summary.schemas.values()}
+    assert "foxglove.SceneUpdate" in names
+    assert all(c.message_encoding == "json" for c in summary.channels.values())
+    update = next(m for t, _, m in messages if t == "/scene/after_attachment")
+    ids = {e["id"] for e in update["entities"]}
+    assert {"obj_2_box", "obj_3_box", "obj_4_box", "shell_floor"} <= ids
+    obj = next(e for e in update["entities"] if e["id"] == "obj_2_box")
+    assert obj["triangles"][0]["indices"] and obj["cubes"][0]["size"]["x"] > 0
+
+
+def test_bad_input_fails_instance_without_retry(prefect_server, fake_stages, box_capture_path, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / FAULTS_FILE).write_text(json.dumps([{"stage": "asset", "item": 3, "kind": "bad_input", "times": 5}]))
+    state = _run(box_capture_path, run)
+    assert state.is_failed()
+    assert "instances failed: 3" in state.message
+    assert fake_stages["asset"] == 2  # the faulty instance never reached the library, and was tried once
+    assert (run / ".faults/asset-000003.count").read_text().strip() == "1"
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["failed_instances"] == [3]
+    assert manifest["missing"][0]["stage"] == "asset"
+    scene = json.loads((run / "scene/scene.json").read_text())
+    assert [o["instance"] for o in scene["objects"]] == [2, 4]  # assembled from the rest
+
+
+def test_transient_fault_is_retried(prefect_server, fake_stages, box_capture_path, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / FAULTS_FILE).write_text(json.dumps([{"stage": "registration", "item": 2, "kind": "transient", "times": 2}]))
+    state = _run(box_capture_path, run)
+    assert state.is_completed(), state.message
+    assert (run / ".faults/registration-000002.count").read_text().strip() == "2"
+    assert fake_stages["registration"] == 3
+
+
+def test_missing_stage_is_reported(prefect_server, box_capture_path, tmp_path, monkeypatch):
+    from tasks import stages
+
+    monkeypatch.setattr(stages, "STAGE_MODULES", {**stages.STAGE_MODULES})
+
+    def unavailable(*args, **kwargs):
+        raise stages.StageNotAvailable("shell", "rescene_core.shell")
+
+    monkeypatch.setattr(stages, "estimate_shell", unavailable)
+    monkeypatch.setattr(stages, "select_views", unavailable)
+    state = _run(box_capture_path, tmp_path / "run")
+    assert state.is_failed()
+    assert "is not available" in state.message
