@@ -75,6 +75,12 @@ def _cmd_log(args: argparse.Namespace) -> int:
     return log_command(args.run)
 
 
+def _cmd_prior_refit(args: argparse.Namespace) -> int:
+    from rescene_core.scenegraph.refit import prior_refit_command
+
+    return prior_refit_command(args.inputs, args.out, args.add_to)
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from flows.demo import demo_command
 
@@ -137,6 +143,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
     p.add_argument("--list", action="store_true", help="list the suites")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("prior-refit", help="refit the scene-graph category prior from scene graphs")
+    p.add_argument("inputs", nargs="+", type=Path, help="captures with ground truth, graph.json files or run dirs")
+    p.add_argument("--out", type=Path, required=True, help="the new prior table (JSON)")
+    p.add_argument("--add-to", type=Path, help="add the counts to this table instead of starting empty")
+    p.set_defaults(func=_cmd_prior_refit)
 
     p = sub.add_parser("demo", help="synthetic capture -> validate -> the flow; prints where to look")
     p.add_argument("--out", type=Path, default=Path("demo"))
