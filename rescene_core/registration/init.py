@@ -1,0 +1,112 @@
+"""FPFH + RANSAC initialisation on extent-normalised clouds (paper Appendix 'Registration Details').
+
+FPFH descriptors are not scale-invariant and the asset (unit box) and the target (metres) differ in
+scale by an unknown factor. Both clouds are therefore centred on their bounding-box centre and divided
+by their bounding-box diagonal before voxel downsampling, normals, FPFH and RANSAC; the candidate is
+then mapped back, which is how the global scale is recovered:
+
+    world_from_asset = world_from_tn * tn_from_sn * sn_from_asset
+
+with ``sn_from_asset`` / ``tn_from_world`` the two normalisations and ``tn_from_sn`` the RANSAC
+similarity (Open3D point-to-point estimation with scaling). The normalisation alone (``tn_from_sn`` =
+identity) is the reference pose the initialisation gate compares against.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rescene_core.config import RegistrationConfig
+from rescene_core.geometry import sim3
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    """``normalised_from_frame``: x -> (x - centre) / extent. centre [3] and extent (bbox diagonal) in frame units."""
+
+    centre: NDArray[np.float64]
+    extent: float
+
+    @classmethod
+    def of(cls, points: NDArray) -> Normalisation:
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        return cls(0.5 * (lo + hi), float(np.linalg.norm(hi - lo)))
+
+    @property
+    def normalised_from_frame(self) -> sim3.Matrix4:
+        return sim3.sim3_from_parts(1.0 / self.extent, np.eye(3), -self.centre / self.extent)
+
+    @property
+    def frame_from_normalised(self) -> sim3.Matrix4:
+        return sim3.sim3_from_parts(self.extent, np.eye(3), self.centre)
+
+    def to_json(self) -> dict[str, object]:
+        return {"centre": [float(v) for v in self.centre], "extent": float(self.extent)}
+
+
+def normalisation_pose(source_norm: Normalisation, target_norm: Normalisation) -> sim3.Matrix4:
+    """world_from_asset of 'identity after normalisation': bbox centres and diagonals matched, no rotation."""
+    return sim3.compose(target_norm.frame_from_normalised, source_norm.normalised_from_frame)
+
+
+def _prepare(points: NDArray[np.float64], voxel: float, config: RegistrationConfig):
+    import open3d as o3d
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    down = cloud.voxel_down_sample(voxel)
+    down.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=config.normal_radius_voxels * voxel, max_nn=30))
+    feature = o3d.pipelines.registration.compute_fpfh_feature(
+        down, o3d.geometry.KDTreeSearchParamHybrid(radius=config.feature_radius_voxels * voxel, max_nn=100)
+    )
+    return down, feature
+
+
+def fpfh_ransac_candidates(
+    source: NDArray[np.float64],
+    target: NDArray[np.float64],
+    source_norm: Normalisation,
+    target_norm: Normalisation,
+    config: RegistrationConfig,
+) -> list[sim3.Matrix4]:
+    """One world_from_asset candidate per RANSAC restart (restart r uses seed ``config.seed + r``).
+
+    source: float64 [n, 3] asset frame; target: float64 [m, 3] world metres. Invalid candidates
+    (not a similarity with positive scale) are dropped here.
+    """
+    import open3d as o3d
+
+    reg = o3d.pipelines.registration
+    voxel = config.voxel_ratio  # the normalised clouds have unit diagonal
+    src_n = sim3.apply(source_norm.normalised_from_frame, source)
+    tgt_n = sim3.apply(target_norm.normalised_from_frame, target)
+    src_down, src_feat = _prepare(src_n, voxel, config)
+    tgt_down, tgt_feat = _prepare(tgt_n, voxel, config)
+    distance = config.ransac_distance_voxels * voxel
+    out: list[sim3.Matrix4] = []
+    for restart in range(config.ransac_restarts):
+        o3d.utility.random.seed(config.seed + restart)
+        result = reg.registration_ransac_based_on_feature_matching(
+            src_down,
+            tgt_down,
+            src_feat,
+            tgt_feat,
+            True,
+            distance,
+            reg.TransformationEstimationPointToPoint(True),
+            3,
+            [
+                reg.CorrespondenceCheckerBasedOnEdgeLength(config.ransac_edge_length),
+                reg.CorrespondenceCheckerBasedOnDistance(distance),
+            ],
+            reg.RANSACConvergenceCriteria(config.ransac_iterations, config.ransac_confidence),
+        )
+        tn_from_sn = np.asarray(result.transformation, dtype=np.float64)
+        if sim3.check_sim3(tn_from_sn, atol=1e-5):
+            continue
+        out.append(
+            sim3.compose(target_norm.frame_from_normalised, sim3.compose(tn_from_sn, source_norm.normalised_from_frame))
+        )
+    return out

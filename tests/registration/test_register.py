@@ -1,0 +1,206 @@
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from rescene_core.config import RegistrationConfig
+from rescene_core.geometry import sim3
+from rescene_core.records import Asset, InstanceId, InstancePoints, Missing, Pose
+from rescene_core.registration import add_s, register, register_detailed
+from rescene_core.registration import pipeline as register_module
+from rescene_core.registration.bounded_icp import umeyama
+from tests.registration.fixtures import chair_mesh, random_world_from_object, scan, table_mesh, unit_box_asset
+
+CONFIG = RegistrationConfig()
+
+
+def _errors(pose, asset, world_from_asset_gt, mesh):
+    diam = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    x = asset.vertices
+    adds = add_s(sim3.apply(world_from_asset_gt, x), sim3.apply(pose.world_from_asset, x)) / diam
+    scale_err = abs(sim3.parts_from_sim3(pose.world_from_asset)[0] / sim3.parts_from_sim3(world_from_asset_gt)[0] - 1)
+    return adds, scale_err
+
+
+def _case(mesh, seed, partial, scale=1.3, noise=0.004):
+    rng = np.random.default_rng(seed)
+    hidden = random_world_from_object(rng, 15)
+    hidden[:3, :3] *= scale
+    asset, asset_from_object = unit_box_asset(mesh, hidden)
+    world_from_object = random_world_from_object(rng, 0)
+    target = scan(mesh, world_from_object, rng, partial=partial, noise=noise)
+    return asset, target, sim3.compose(world_from_object, sim3.inverse(asset_from_object))
+
+
+def test_recovers_known_sim3_on_full_noisy_cloud():
+    mesh = chair_mesh()
+    asset, target, gt = _case(mesh, seed=3, partial=False)
+    pose = register(asset, target, CONFIG)
+    assert isinstance(pose, Pose), pose
+    adds, scale_err = _errors(pose, asset, gt, mesh)
+    assert adds < 0.02, pose.diagnostics["final"]
+    assert scale_err < 0.02
+    assert pose.method == "bounded_sim3_icp"
+
+
+def test_recovers_known_sim3_on_partial_noisy_cloud():
+    mesh = table_mesh()
+    asset, target, gt = _case(mesh, seed=1, partial=True, scale=0.7)
+    pose = register(asset, target, CONFIG)
+    assert isinstance(pose, Pose), pose
+    adds, scale_err = _errors(pose, asset, gt, mesh)
+    assert adds < 0.05, pose.diagnostics["final"]
+    assert scale_err < 0.05
+
+
+def test_diagnostics_record_every_gate_and_are_json():
+    asset, target, _ = _case(chair_mesh(), seed=3, partial=False)
+    pose = register(asset, target, CONFIG)
+    d = json.loads(json.dumps(pose.to_json()))["diagnostics"]
+    assert d["init"]["candidates"], "no initialisation candidate recorded"
+    for cand in d["init"]["candidates"]:
+        assert "accepted" in cand or cand["source"] == "normalisation"
+    assert {"accepted", "reasons", "fit", "init_fit", "scale_vs_init", "refinement_rotation_deg"} <= set(
+        d["refinement"]
+    )
+    assert d["final"]["fit"]["inlier_ratio"] >= CONFIG.min_result_inlier_ratio
+
+
+def test_icp_respects_rotation_and_scale_bounds():
+    mesh = chair_mesh()
+    asset, target, gt = _case(mesh, seed=5, partial=False)
+    points = np.asarray(target.points, np.float64)
+    centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
+    # initialisation 40 deg of yaw and 1.4x scale away from the truth, about the object's centre
+    off = sim3.sim3_from_parts(1.4, Rotation.from_euler("z", 40, degrees=True).as_matrix(), np.zeros(3))
+    init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
+    source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
+    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    result = register_module.bounded_sim3_icp(source, points, init, extent, CONFIG)
+    assert result.history
+    assert max(h["step_rotation_deg"] for h in result.history) <= CONFIG.max_step_rotation_deg + 1e-6
+    s0, rot0, _ = sim3.parts_from_sim3(init)
+    s, rot, _ = sim3.parts_from_sim3(result.world_from_asset)
+    assert np.rad2deg(sim3.rotation_angle(rot @ rot0.T)) <= CONFIG.max_total_rotation_deg + 1e-6
+    assert CONFIG.scale_min - 1e-9 <= s / s0 <= CONFIG.scale_max + 1e-9
+    # the truth is 1/1.4 away in scale: the scale bound must have been active
+    assert result.scale_clips > 0
+
+
+@pytest.mark.parametrize("bound", ["step", "total"])
+def test_rotation_clamps_engage(bound):
+    mesh = chair_mesh()
+    asset, target, gt = _case(mesh, seed=5, partial=False)
+    points = np.asarray(target.points, np.float64)
+    centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
+    off = sim3.sim3_from_parts(1.0, Rotation.from_euler("z", 12, degrees=True).as_matrix(), np.zeros(3))
+    init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
+    source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
+    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    limit = {"max_step_rotation_deg": 0.5} if bound == "step" else {"max_total_rotation_deg": 4.0}
+    config = CONFIG.model_copy(update=limit)
+    result = register_module.bounded_sim3_icp(source, points, init, extent, config)
+    _, rot0, _ = sim3.parts_from_sim3(init)
+    _, rot, _ = sim3.parts_from_sim3(result.world_from_asset)
+    total = np.rad2deg(sim3.rotation_angle(rot @ rot0.T))
+    assert max(h["step_rotation_deg"] for h in result.history) <= config.max_step_rotation_deg + 1e-6
+    assert total <= config.max_total_rotation_deg + 1e-6
+    if bound == "step":
+        assert result.step_clamps > 0
+    else:
+        assert result.total_clamps > 0 and total > 3.9
+
+
+def test_wild_scale_candidate_is_rejected_by_the_init_gate(monkeypatch):
+    asset, target, gt = _case(chair_mesh(), seed=3, partial=False)
+    wild = sim3.compose(gt, sim3.sim3_from_parts(5.0, np.eye(3), np.zeros(3)))
+    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [wild])
+    pose, diag = register_detailed(asset, target, CONFIG)
+    cand = diag["init"]["candidates"][0]
+    assert not cand["accepted"]
+    assert any("scale" in r for r in cand["reasons"])
+    assert diag["init"]["candidates"][-1]["source"] == "normalisation"
+    if isinstance(pose, Pose):
+        s = sim3.parts_from_sim3(pose.world_from_asset)[0] / sim3.parts_from_sim3(gt)[0]
+        assert 0.5 < s < 2.0
+
+
+def test_solver_failure_falls_back_to_conservative_icp(monkeypatch):
+    asset, target, _ = _case(chair_mesh(), seed=3, partial=False)
+
+    def broken(*args, **kwargs):
+        raise FloatingPointError("solver blew up")
+
+    monkeypatch.setattr(register_module, "bounded_sim3_icp", broken)
+    pose, diag = register_detailed(asset, target, CONFIG)
+    assert "solver blew up" in diag["refinement"]["error"]
+    assert diag["refinement"].get("method") == "fallback_nn_icp"
+    assert isinstance(pose, Pose)
+    assert pose.method in {"fallback_nn_icp", "init_only"}
+
+
+def _asset(vertices, faces):
+    return Asset(InstanceId(3), np.asarray(vertices, np.float64), np.asarray(faces, np.int64), "gt")
+
+
+def _target(points):
+    points = np.asarray(points, np.float32)
+    return InstancePoints(InstanceId(3), points, np.zeros((len(points), 3), np.uint8))
+
+
+@pytest.fixture(scope="module")
+def good():
+    asset, target, _ = _case(chair_mesh(), seed=3, partial=False)
+    return asset, target
+
+
+def test_rejects_nan_vertices(good):
+    asset, target = good
+    v = asset.vertices.copy()
+    v[5] = np.nan
+    out = register(_asset(v, asset.faces), target, CONFIG)
+    assert isinstance(out, Missing) and out.stage == "registration" and "non-finite" in out.reason
+
+
+def test_rejects_nan_target(good):
+    asset, target = good
+    p = np.asarray(target.points).copy()
+    p[10, 1] = np.nan
+    out = register(asset, _target(p), CONFIG)
+    assert isinstance(out, Missing) and "non-finite" in out.reason
+
+
+def test_rejects_too_few_points(good):
+    asset, target = good
+    out = register(asset, _target(np.asarray(target.points)[: CONFIG.min_correspondences - 1]), CONFIG)
+    assert isinstance(out, Missing) and "points" in out.reason
+
+
+def test_rejects_mesh_without_faces(good):
+    asset, target = good
+    out = register(_asset(asset.vertices, np.zeros((0, 3))), target, CONFIG)
+    assert isinstance(out, Missing) and "no faces" in out.reason
+
+
+@pytest.mark.parametrize("kind", ["planar", "collinear"])
+def test_rejects_degenerate_targets(good, kind):
+    asset, _ = good
+    rng = np.random.default_rng(0)
+    p = rng.uniform(-1, 1, size=(500, 3))
+    p[:, 2] = 0.0
+    if kind == "collinear":
+        p[:, 1] = 0.0
+    out = register(asset, _target(p + [1.0, 2.0, 0.5]), CONFIG)
+    assert isinstance(out, Missing) and kind in out.reason
+
+
+def test_umeyama_recovers_exact_similarity():
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(100, 3))
+    rot = Rotation.random(random_state=1).as_matrix()
+    b = 1.7 * a @ rot.T + [1.0, -2.0, 0.3]
+    s, r = umeyama(a, b)
+    assert abs(s - 1.7) < 1e-9
+    np.testing.assert_allclose(r, rot, atol=1e-9)
