@@ -19,8 +19,8 @@ pipeline completes with a valid graph and counts the validation retries. It is n
 
 from __future__ import annotations
 
+import base64
 import hashlib
-import json
 import random
 import time
 from pathlib import Path
@@ -28,9 +28,11 @@ from typing import Any
 
 from rescene_core.capture import open_capture
 from rescene_core.config import KeyFrameConfig, SceneGraphConfig, ShellConfig
-from rescene_core.records import InstanceId, Root, SceneGraph
+from rescene_core.records import Root, SceneGraph
 from rescene_core.scenegraph import FramePrediction, fuse_with_report, make_predictor, predict_frames
+from rescene_core.scenegraph.frame import render_overlay
 from rescene_core.scenegraph.loopback import LoopbackServer, Reply, image_url
+from rescene_core.scenegraph.overlay import png_bytes
 
 MALFORMED_RATE = 0.30
 """Fraction of loopback calls answered with malformed JSON."""
@@ -121,10 +123,6 @@ def _loopback_run(capture, frames, shell, geometric: list[FramePrediction], seed
     stats = {"calls": 0, "malformed": 0}
 
     cfg0 = SceneGraphConfig()
-    import base64
-
-    from rescene_core.scenegraph.frame import render_overlay
-    from rescene_core.scenegraph.overlay import png_bytes
 
     for t in frames:
         _, image, _ = render_overlay(capture, t, cfg0)
@@ -294,10 +292,3 @@ def table(result: dict[str, Any]) -> str:
         f"{lb['frames_partial']} partial / {lb['frames_failed']} failed frames"
     )
     return "\n".join(lines)
-
-
-def _json_ready(obj: Any) -> Any:
-    return json.loads(json.dumps(obj, default=str))
-
-
-__all__ = ["run", "table", "run_seed", "edge_accuracy", "anchor_resolved", "single_frame_graph", "InstanceId"]
