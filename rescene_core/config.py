@@ -40,9 +40,12 @@ class ShellConfig(_Section):
     wall_min_height: float = 1.0
     """Without wall labels: least vertical extent of a wall plane's inliers (m)."""
     merge_angle_deg: float = 10.0
-    """Wall planes closer than this angle and 2 x ransac_distance in offset are merged (deg)."""
-    polygon_concave_ratio: float = 0.3
-    """shapely concave_hull ratio for the floor outline before clipping by walls (1 = convex hull)."""
+    """Wall planes closer than this angle and merge_distance in offset are merged (deg)."""
+    merge_distance: float = 0.15
+    """Parallel wall planes closer than this are one wall (noisy depth splits a wall into slabs) (m)."""
+    polygon_concave_ratio: float = 1.0
+    """shapely concave_hull ratio of the floor outline before walls cut it (1 = convex hull; lower follows
+    holes that furniture leaves in the floor points)."""
     polygon_simplify: float = 0.05
     """Douglas-Peucker tolerance of the floor polygon (m)."""
     ransac_iterations: int = 1000
@@ -124,6 +127,18 @@ class AssetConfig(_Section):
     """Local path of the SAM 3D Objects checkpoint (sam3d backend only)."""
     target_faces: int = 4000
     """Face budget of generated meshes."""
+    sam3d_code_dir: str | None = None
+    """Local clone of facebookresearch/sam-3d-objects whose notebook/inference.py is imported (sam3d only)."""
+    seed: int = 42
+    """Generator seed (sam3d)."""
+    lift_resolution: int = 40
+    """lift: grid cells along the object's longest side for the solid fill and marching cubes."""
+    lift_min_pixels: int = 50
+    """lift: fewest mask pixels with valid depth to build an asset from."""
+    lift_mask_erosion: int = 1
+    """lift: mask erosion (pixels) before lifting, to drop mixed depths at the silhouette."""
+    lift_mirror: bool = True
+    """lift: complete the unseen back by mirroring about the vertical plane across the view direction."""
 
 
 class RegistrationConfig(_Section):

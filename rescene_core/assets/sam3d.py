@@ -1,0 +1,140 @@
+"""Adapter to SAM 3D Objects (facebookresearch/sam-3d-objects) for GPU workers.
+
+Public inference API (the repository's ``notebook/inference.py``)::
+
+    inference = Inference("<checkpoints>/pipeline.yaml", compile=False)
+    output = inference(image_rgb_uint8, mask_bool, seed=42)       # dict
+
+with, per the repository's visualisation code (``SceneVisualizer.object_pointcloud`` / ``make_scene``):
+``output["glb"]`` a trimesh mesh of the object, ``output["rotation"]`` a [1, 4] quaternion (w, x, y, z),
+``output["translation"]`` [1, 3] and ``output["scale"]`` [1, 3] (isotropic), which place the object's
+local points in the PyTorch3D camera frame with row vectors: ``p_cam = (s * p_local) @ R + t``,
+``R = quaternion_to_matrix(q)``. PyTorch3D cameras have x left, y up, z forward; OpenCV's (ours) x
+right, y down, z forward. The exported GLB is y-up (glTF); the local frame is z-up, related by
+``GLB_FROM_LOCAL`` (a -90 deg turn about x, as the repository's own y-up/z-up fix uses).
+
+This module imports nothing heavy at import time; ``Sam3dBackend`` imports ``inference`` (SAM 3D
+Objects installed from its repository, whose clone ``assets.sam3d_code_dir`` names) only when it is
+constructed, and says which install or checkpoint is missing. The model was not run in this
+project's tests (no weights, no GPU); ``convert_output`` is tested on fake outputs of the documented
+shape. docs/backends.md says what was and was not run.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from rescene_core.assets.base import BackendUnavailable, GenerationFailed, GeneratorInput, GeneratorOutput
+from rescene_core.config import AssetConfig
+from rescene_core.geometry import sim3
+from rescene_core.records import Asset, Camera, Pose
+
+GLB_FROM_LOCAL = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+"""Rotation from SAM 3D's z-up local object frame to its y-up GLB export (y_glb = z, z_glb = -y)."""
+
+CV_FROM_PYTORCH3D = np.diag([-1.0, -1.0, 1.0])
+"""PyTorch3D camera axes (x left, y up, z forward) to OpenCV's (x right, y down, z forward)."""
+
+
+def _array(value: Any) -> NDArray[np.float64]:
+    """A tensor (torch, on any device) or array-like as float64 numpy."""
+    if hasattr(value, "detach"):
+        value = value.detach().cpu().numpy()
+    return np.asarray(value, dtype=np.float64)
+
+
+def camera_from_local(output: dict[str, Any]) -> sim3.Matrix4:
+    """cam_from_local (OpenCV camera axes) of a SAM 3D output's rotation / translation / scale."""
+    quat_wxyz = _array(output["rotation"]).reshape(-1)[:4]
+    trans = _array(output["translation"]).reshape(-1)[:3]
+    scales = _array(output["scale"]).reshape(-1)
+    if not np.allclose(scales, scales[0], rtol=1e-4):
+        raise GenerationFailed(f"SAM 3D scale is not isotropic: {scales.tolist()}")
+    rot_rows = Rotation.from_quat([quat_wxyz[1], quat_wxyz[2], quat_wxyz[3], quat_wxyz[0]]).as_matrix()
+    # row-vector p @ R is column-vector R^T p
+    p3d_from_local = sim3.sim3_from_parts(float(scales[0]), rot_rows.T, trans)
+    cv = np.eye(4)
+    cv[:3, :3] = CV_FROM_PYTORCH3D
+    return cv @ p3d_from_local
+
+
+def convert_output(output: dict[str, Any], camera: Camera) -> GeneratorOutput:
+    """A SAM 3D Objects output dict -> GeneratorOutput in its local (z-up) frame, with the world prior.
+
+    The prior ``world_from_generator`` = world_from_cam * cam_from_local is what the generator's layout
+    head predicts; registration uses it as its rotation-gate reference.
+    """
+    mesh = output.get("glb")
+    if mesh is None or not hasattr(mesh, "vertices"):
+        raise GenerationFailed("SAM 3D output has no 'glb' mesh")
+    if hasattr(mesh, "to_geometry"):  # a trimesh Scene
+        mesh = mesh.to_geometry()
+    glb_vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    local = glb_vertices @ GLB_FROM_LOCAL  # (GLB_FROM_LOCAL^T p_glb) row-wise
+    world_from_local = sim3.compose(camera.world_from_cam, camera_from_local(output))
+    metadata = {
+        "model": "SAM 3D Objects",
+        "glb_vertices": int(len(glb_vertices)),
+        "layout": {
+            "rotation_wxyz": _array(output["rotation"]).reshape(-1)[:4].tolist(),
+            "translation": _array(output["translation"]).reshape(-1)[:3].tolist(),
+            "scale": float(_array(output["scale"]).reshape(-1)[0]),
+        },
+    }
+    return GeneratorOutput(local, np.asarray(mesh.faces, dtype=np.int64), metadata, world_from_local)
+
+
+def layout_pose(asset: Asset) -> Pose | None:
+    """The generator's own placement of a SAM 3D asset as a Pose (method 'sam3d_layout'), when it has one.
+
+    world_from_asset = world_from_cam * cam_from_local * generator_from_asset; registration refines it.
+    """
+    prior = asset.metadata.get("world_from_asset_prior")
+    if prior is None:
+        return None
+    return Pose(asset.instance, np.asarray(prior, dtype=np.float64), "sam3d_layout", {"source": "SAM 3D layout"})
+
+
+class Sam3dBackend:
+    """SAM 3D Objects behind the AssetBackend protocol (GPU worker with SAM 3D Objects installed)."""
+
+    name = "sam3d"
+
+    def __init__(self, config: AssetConfig):
+        checkpoint = config.sam3d_checkpoint
+        if not checkpoint:
+            raise BackendUnavailable(
+                "the sam3d backend needs assets.sam3d_checkpoint: the path of SAM 3D Objects' "
+                "checkpoints/<tag>/pipeline.yaml (weights are never downloaded)"
+            )
+        config_path = Path(checkpoint)
+        if config_path.is_dir():
+            config_path = config_path / "pipeline.yaml"
+        if not config_path.is_file():
+            raise BackendUnavailable(f"SAM 3D Objects pipeline config not found at {config_path}")
+        if config.sam3d_code_dir:
+            sys.path.insert(0, str(Path(config.sam3d_code_dir) / "notebook"))
+            sys.path.insert(0, str(Path(config.sam3d_code_dir)))
+        try:
+            from inference import Inference  # the repository's notebook/inference.py
+        except ImportError as err:
+            raise BackendUnavailable(
+                "the sam3d backend needs SAM 3D Objects installed on this worker (its repository "
+                "installed with its inference extras; set assets.sam3d_code_dir to the clone so that "
+                "notebook/inference.py imports) "
+                f"({err})"
+            ) from err
+        self.seed = config.seed
+        self.inference = Inference(str(config_path), compile=False)
+
+    def generate(self, view: GeneratorInput) -> GeneratorOutput:
+        output = self.inference(np.asarray(view.rgb), np.asarray(view.mask, bool), seed=self.seed)
+        out = convert_output(output, view.camera)
+        out.metadata.update({"frame": int(view.frame), "label": view.label, "seed": self.seed})
+        return out

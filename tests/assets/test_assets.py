@@ -1,0 +1,173 @@
+import numpy as np
+import pytest
+import trimesh
+
+from rescene_core.assets import (
+    BackendUnavailable,
+    GeneratorInput,
+    finish_asset,
+    generate_asset,
+    load_asset,
+    save_asset,
+)
+from rescene_core.assets.lift import LiftBackend
+from rescene_core.assets.sam3d import GLB_FROM_LOCAL, Sam3dBackend, convert_output, layout_pose
+from rescene_core.config import AssetConfig
+from rescene_core.geometry import sim3
+from rescene_core.records import Asset, Camera, InstanceId, Missing, ViewChoice
+from rescene_core.registration import add_s
+from rescene_core.render import RayCaster, RenderMesh
+from tests.registration.fixtures import chair_mesh
+
+CONFIG = AssetConfig()
+
+
+def look_at_camera(eye, target, width=160, height=120, f=140.0) -> Camera:
+    """OpenCV camera at ``eye`` looking at ``target`` (world z up)."""
+    z = np.asarray(target, float) - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    pose = np.eye(4)
+    pose[:3, :3] = np.stack([x, y, z], axis=1)
+    pose[:3, 3] = eye
+    K = np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]])
+    return Camera(K, pose, width, height)
+
+
+def render_view(mesh, camera) -> GeneratorInput:
+    caster = RayCaster([RenderMesh.uniform(5, np.asarray(mesh.vertices), np.asarray(mesh.faces), (0.6, 0.5, 0.4))])
+    hits = caster.cast_camera(camera)
+    mask = hits.ids == 5
+    rgb = np.zeros((camera.height, camera.width, 3), np.uint8)
+    return GeneratorInput(InstanceId(5), "chair", 0, rgb, mask, camera, hits.depth.astype(np.float32))
+
+
+@pytest.fixture(scope="module")
+def chair_views():
+    mesh = chair_mesh()
+    full = look_at_camera(np.array([1.6, 2.2, 1.4]), np.array([0.0, 0.0, 0.45]))
+    close = look_at_camera(np.array([0.45, 0.6, 0.9]), np.array([0.0, 0.0, 0.45]), f=320.0)
+    return mesh, render_view(mesh, full), render_view(mesh, close)
+
+
+def _completeness_error(asset: Asset, mesh) -> float:
+    """Mean distance (fraction of the diagonal) from the true surface to the generated one, both in the world
+    (the generated one placed by the backend's own canonicalisation, as recorded in its metadata)."""
+    world_from_asset = sim3.compose(
+        np.asarray(asset.metadata["world_from_generator"]), sim3.inverse(asset.asset_from_generator)
+    )
+    posed = trimesh.Trimesh(sim3.apply(world_from_asset, asset.vertices), asset.faces)
+    truth = trimesh.sample.sample_surface(mesh, 1500, seed=0)[0]
+    generated = trimesh.sample.sample_surface(posed, 6000, seed=0)[0]
+    diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    return add_s(truth, generated) / diag
+
+
+def test_lift_gives_watertight_unit_box_mesh(chair_views):
+    mesh, full, _ = chair_views
+    asset = finish_asset(InstanceId(5), "lift", LiftBackend(CONFIG).generate(full))
+    tm = trimesh.Trimesh(asset.vertices, asset.faces)
+    assert tm.is_watertight and tm.volume > 0
+    lo, hi = asset.vertices.min(axis=0), asset.vertices.max(axis=0)
+    assert abs(float((hi - lo).max()) - 1.0) < 1e-9
+    np.testing.assert_allclose(0.5 * (lo + hi), 0.0, atol=1e-9)
+    assert len(asset.faces) <= CONFIG.target_faces
+    assert asset.metadata["watertight"] and not asset.metadata["mask_touches_border"]
+    # the generator frame is upright: its z axis is world up
+    world_from_generator = np.asarray(asset.metadata["world_from_generator"])
+    np.testing.assert_allclose(world_from_generator[:3, 2], [0.0, 0.0, 1.0], atol=1e-9)
+
+
+def test_lift_quality_depends_on_the_view(chair_views):
+    mesh, full, close = chair_views
+    backend = LiftBackend(CONFIG)
+    good = finish_asset(InstanceId(5), "lift", backend.generate(full))
+    bad = finish_asset(InstanceId(5), "lift", backend.generate(close))
+    assert bad.metadata["mask_touches_border"]
+    good_err, bad_err = _completeness_error(good, mesh), _completeness_error(bad, mesh)
+    assert good_err < 0.06
+    assert bad_err > 1.5 * good_err
+
+
+def test_lift_without_depth_or_pixels_is_missing(chair_views):
+    _, full, _ = chair_views
+
+    class Cap:  # the Capture surface generate_asset reads
+        num_frames = 1
+        rgb = full.rgb[None]
+        instance_masks = np.where(full.mask, 5, 0)[None]
+        depth = None
+
+        def instance(self, i):
+            raise KeyError(i)
+
+        def camera(self, t):
+            return full.camera
+
+    view = ViewChoice(InstanceId(5), 0, "test", "test")
+    out = generate_asset(Cap(), view, CONFIG)
+    assert isinstance(out, Missing) and out.stage == "asset" and "depth" in out.reason
+    out = generate_asset(Cap(), ViewChoice(InstanceId(5), 3, "test", "test"), CONFIG)
+    assert isinstance(out, Missing) and "frame" in out.reason
+    Cap.depth = full.depth[None]
+    Cap.instance_masks = np.zeros_like(Cap.instance_masks)
+    out = generate_asset(Cap(), view, CONFIG)
+    assert isinstance(out, Missing) and "pixels" in out.reason
+
+
+def test_save_load_round_trip(tmp_path, chair_views):
+    _, full, _ = chair_views
+    asset = finish_asset(InstanceId(5), "lift", LiftBackend(CONFIG).generate(full))
+    path = save_asset(tmp_path / "asset.glb", asset)
+    back = load_asset(path, 5)
+    assert back.backend == "lift" and back.instance == 5
+    np.testing.assert_allclose(back.vertices, asset.vertices, atol=1e-6)
+    np.testing.assert_array_equal(back.faces, asset.faces)
+    np.testing.assert_allclose(back.asset_from_generator, asset.asset_from_generator)
+    assert back.metadata["mask_pixels"] == asset.metadata["mask_pixels"]
+
+
+def _fake_sam3d_output(local_mesh, quat_wxyz, translation, scale):
+    glb = trimesh.Trimesh(local_mesh.vertices @ GLB_FROM_LOCAL.T, local_mesh.faces, process=False)
+    return {
+        "glb": glb,
+        "rotation": np.asarray([quat_wxyz], np.float32),
+        "translation": np.asarray([translation], np.float32),
+        "scale": np.asarray([[scale] * 3], np.float32),
+        "gaussian": [None],
+    }
+
+
+def test_sam3d_conversion_places_the_mesh_like_the_reference_code():
+    from scipy.spatial.transform import Rotation
+
+    local = trimesh.creation.box((0.4, 0.2, 0.6))
+    local.apply_translation((0.1, 0.0, 0.3))
+    q_xyzw = Rotation.from_euler("xyz", [20, -35, 50], degrees=True).as_quat()
+    quat = [q_xyzw[3], q_xyzw[0], q_xyzw[1], q_xyzw[2]]
+    t, s = [0.2, -0.1, 2.5], 1.7
+    camera = look_at_camera(np.array([1.0, 2.0, 1.5]), np.array([0.0, 0.0, 0.5]))
+    out = convert_output(_fake_sam3d_output(local, quat, t, s), camera)
+    # reference: PyTorch3D row vectors p_cam = (s p) @ R + t, then PyTorch3D -> OpenCV axes, then world
+    R = Rotation.from_quat(q_xyzw).as_matrix()
+    p3d = (s * np.asarray(local.vertices)) @ R + t
+    expected = sim3.apply(camera.world_from_cam, p3d * [-1.0, -1.0, 1.0])
+    np.testing.assert_allclose(sim3.apply(out.world_from_generator_prior, out.vertices), expected, atol=1e-5)
+    asset = finish_asset(InstanceId(4), "sam3d", out)
+    pose = layout_pose(asset)
+    assert pose is not None and pose.method == "sam3d_layout"
+    posed = sim3.apply(pose.world_from_asset, asset.vertices)
+    assert np.abs(np.sort(posed, axis=0) - np.sort(expected, axis=0)).max() < 1e-4
+    assert abs(float(np.ptp(asset.vertices, axis=0).max()) - 1.0) < 1e-9
+
+
+def test_sam3d_backend_names_what_is_missing(tmp_path):
+    with pytest.raises(BackendUnavailable, match="sam3d_checkpoint"):
+        Sam3dBackend(AssetConfig(backend="sam3d"))
+    with pytest.raises(BackendUnavailable, match="not found"):
+        Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path / "nope.yaml")))
+    (tmp_path / "pipeline.yaml").write_text("{}\n")
+    with pytest.raises(BackendUnavailable, match="SAM 3D Objects installed"):
+        Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path)))
