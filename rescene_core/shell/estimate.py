@@ -141,7 +141,7 @@ def _merge(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
     cos_merge = np.cos(np.radians(config.merge_angle_deg))
     for w in sorted(walls, key=lambda w: -w.support):
         for m in merged:
-            if float(w.normal @ m.normal) >= cos_merge and abs(w.offset - m.offset) <= 2 * config.ransac_distance:
+            if float(w.normal @ m.normal) >= cos_merge and abs(w.offset - m.offset) <= config.merge_distance:
                 a, b = w.endpoints()
                 s = [float(a @ m.tangent), float(b @ m.tangent)]
                 m.s_range = (min(m.s_range[0], *s), max(m.s_range[1], *s))
@@ -242,7 +242,13 @@ def estimate_shell(capture: Capture, config: ShellConfig | None = None) -> RoomS
         above = thin[thin[:, 2] > floor_z + 3 * config.ransac_distance]
         walls = _vertical_planes(above, config, inside, thin[:, :2])
     walls = _merge(walls, config)[: config.max_walls]
-    polygon = _polygon(floor_xy, points[:, :2], walls, config)
+    # Wall points mark the room's outline where furniture hides the floor; the walls then cut what lies behind.
+    outline_xy = floor_xy
+    if wall_ids:
+        outline_xy = np.concatenate(
+            [floor_xy, _downsample(points[np.isin(point_ids, wall_ids)], config.sample_voxel)[:, :2]]
+        )
+    polygon = _polygon(outline_xy, points[:, :2], walls, config)
 
     ceiling_pts = points[np.isin(point_ids, by_label.get("ceiling", []))]
     ceiling = float(np.median(ceiling_pts[:, 2]) - floor_z) if len(ceiling_pts) else None
