@@ -255,7 +255,10 @@ def _final_message(failures: list[Missing], frame_failures: list[str], scene_err
     parts = []
     if failures:
         ids = ", ".join(str(int(m.instance)) for m in sorted(failures, key=lambda m: m.instance))
-        detail = "; ".join(f"{m.instance} ({m.stage}: {m.reason})" for m in sorted(failures, key=lambda m: m.instance))
+        by_reason: dict[tuple[str, str], list[int]] = {}
+        for m in sorted(failures, key=lambda m: m.instance):
+            by_reason.setdefault((m.stage, m.reason), []).append(int(m.instance))
+        detail = "; ".join(f"{stage}: {reason} ({', '.join(map(str, i))})" for (stage, reason), i in by_reason.items())
         parts.append(f"instances failed: {ids} -- {detail}")
     if frame_failures:
         parts.append(f"left out of fusion: {', '.join(frame_failures)}")

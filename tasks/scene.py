@@ -156,7 +156,8 @@ def attach_layout(
         }
         shell_rec = load_shell(run_dir, shell)
         scene_graph = SceneGraph.from_json(read_json(Path(run_dir) / graph["path"]))
-        layout = stages.attach(objects, scene_graph, shell_rec, config)
+        # an empty scene has nothing to attach: the library is not asked to place zero objects
+        layout = stages.attach(objects, scene_graph, shell_rec, config) if objects else Layout({})
         write_json_atomic(Path(run_dir) / "layout.json", layout.to_json())
         for op in layout.operations:
             seg.log(

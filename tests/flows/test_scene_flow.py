@@ -121,3 +121,36 @@ def test_missing_stage_is_reported(prefect_server, box_capture_path, tmp_path, m
     state = _run(box_capture_path, tmp_path / "run")
     assert state.is_failed()
     assert "is not available" in state.message
+
+
+def test_flow_run_retry_reruns_only_failed_instances(prefect_server, fake_stages, box_capture_path, tmp_path):
+    """`prefect flow-run retry` after an instance failed: only that instance and what follows it run."""
+    import asyncio
+    from pathlib import Path
+
+    from prefect.cli.flow_run import retry
+    from prefect.client.orchestration import get_client
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / FAULTS_FILE).write_text(json.dumps([{"stage": "registration", "item": 3, "kind": "bad_input", "times": 1}]))
+    state = _run(box_capture_path, run)
+    assert state.is_failed() and "instances failed: 3" in state.message
+    assert fake_stages["registration"] == 2
+    flow_run_id = state.state_details.flow_run_id
+
+    fake_stages.clear()
+    entrypoint = f"{Path(__file__).resolve().parents[2] / 'flows' / 'scene.py'}:rescene"
+    with pytest.raises(SystemExit) as exit_info:
+        asyncio.run(retry(str(flow_run_id), entrypoint=entrypoint))
+    assert exit_info.value.code in (0, None)
+    assert dict(fake_stages) == {"registration": 1, "fusion": 1, "attachment": 1}
+
+    async def final_state():
+        async with get_client() as client:
+            return (await client.read_flow_run(flow_run_id)).state
+
+    assert asyncio.run(final_state()).is_completed()
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["failed_instances"] == [] and manifest["stages"]["registration"] == {"cached": 2, "completed": 1}
+    assert [o["instance"] for o in json.loads((run / "scene/scene.json").read_text())["objects"]] == [2, 3, 4]
