@@ -81,7 +81,7 @@ class RayHits:
     depth: float32 metres along camera z (0 = miss). ids: int32 mesh id (0 = miss).
     mesh_index: int32 index of the hit mesh in the renderer's list (-1 = miss).
     face_index: int64 index into the renderer's concatenated faces (-1 = miss).
-    points: float64 [H, W, 3] world hit points. normals: float32 [H, W, 3] unit face normals facing the camera.
+    points: float32 [H, W, 3] world hit points. normals: float32 [H, W, 3] unit face normals facing the camera.
     """
 
     hit: NDArray[np.bool_]
@@ -89,7 +89,7 @@ class RayHits:
     ids: NDArray[np.int32]
     mesh_index: NDArray[np.int32]
     face_index: NDArray[np.int64]
-    points: NDArray[np.float64]
+    points: NDArray[np.float32]
     normals: NDArray[np.float32]
 
 
@@ -132,45 +132,62 @@ class RayCaster:
         counts = np.array([len(m.faces) for m in self.meshes], np.int64)
         self.face_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self.mesh_ids = np.array([m.id for m in self.meshes], np.int32)
+        self._dirs_cache: dict[bytes, NDArray[np.float32]] = {}
 
     def cast(self, origins: NDArray, directions: NDArray) -> dict[str, NDArray]:
-        """Raw first hits of rays [..., 3] + [..., 3]: t (inf on miss), mesh index (-1), face index (-1), normals."""
+        """Raw first hits of rays [..., 3] + [..., 3]: t (inf on miss), hit, mesh index (-1), face index (-1),
+        normals (unit face normals, not oriented)."""
         shape = directions.shape[:-1]
         rays = np.empty((*shape, 6), np.float32)
         rays[..., :3] = origins
         rays[..., 3:] = directions
         out = self.scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=self.threads)
         t = out["t_hit"].numpy()
-        geom = out["geometry_ids"].numpy()
         hit = np.isfinite(t)
-        mesh_index = np.where(hit, geom, 0).astype(np.int64)
-        face = np.where(hit, self.face_offsets[mesh_index] + out["primitive_ids"].numpy().astype(np.int64), -1)
+        geom = np.where(hit, out["geometry_ids"].numpy(), 0).astype(np.int64)
+        prim = np.where(hit, out["primitive_ids"].numpy(), 0).astype(np.int64)
         return {
             "t": t,
             "hit": hit,
-            "mesh_index": np.where(hit, mesh_index, -1).astype(np.int32),
-            "face_index": face,
+            "mesh_index": np.where(hit, geom, -1).astype(np.int32),
+            "face_index": np.where(hit, self.face_offsets[geom] + prim, -1),
             "normals": out["primitive_normals"].numpy(),
         }
 
     def occluded(self, points: NDArray, targets: NDArray, eps: float = 1e-3) -> NDArray[np.bool_]:
         """Whether the segment from each point [n, 3] to its target [n, 3] (or one target [3]) hits a mesh."""
-        d = np.broadcast_to(targets, points.shape) - points
-        length = np.linalg.norm(d, axis=-1, keepdims=True)
-        unit = d / np.maximum(length, 1e-12)
-        start = points + unit * eps
-        raw = self.cast(start, unit)
-        return raw["t"] < (length[..., 0] - 2 * eps)
+        d = (np.broadcast_to(targets, points.shape) - points).astype(np.float32)
+        length = np.sqrt(np.einsum("ni,ni->n", d, d))
+        unit = d / np.maximum(length, 1e-12)[:, None]
+        raw = self.cast(points + unit * eps, unit)
+        return raw["t"] < (length - 2 * eps)
+
+    def _camera_dirs(self, camera: Camera) -> NDArray[np.float32]:
+        """Ray directions [H, W, 3] in the camera frame (z = 1), cached per intrinsics and size."""
+        key = np.asarray(camera.K, np.float64).tobytes() + np.array([camera.width, camera.height]).tobytes()
+        dirs = self._dirs_cache.get(key)
+        if dirs is None:
+            K = np.asarray(camera.K, np.float64)
+            u = (np.arange(camera.width) + 0.5 - K[0, 2]) / K[0, 0]
+            v = (np.arange(camera.height) + 0.5 - K[1, 2]) / K[1, 1]
+            dirs = np.empty((camera.height, camera.width, 3), np.float32)
+            dirs[..., 0] = u[None, :]
+            dirs[..., 1] = v[:, None]
+            dirs[..., 2] = 1.0
+            self._dirs_cache[key] = dirs
+        return dirs
 
     def cast_camera(self, camera: Camera) -> RayHits:
         """First hit per pixel of ``camera``."""
-        origin, dirs = camera_rays(camera)
-        raw = self.cast(np.broadcast_to(origin, dirs.shape), dirs)
+        rot = np.asarray(camera.world_from_cam[:3, :3], np.float32)
+        origin = np.asarray(camera.world_from_cam[:3, 3], np.float32)
+        dirs = self._camera_dirs(camera) @ rot.T
+        raw = self.cast(origin, dirs)
         hit = raw["hit"]
-        t = np.where(hit, raw["t"], 0.0)
+        t = np.where(hit, raw["t"], np.float32(0.0))
         normals = raw["normals"]
         facing = np.einsum("hwc,hwc->hw", normals, dirs) > 0
-        normals = np.where(facing[..., None], -normals, normals).astype(np.float32)
+        normals = np.where(facing[..., None], -normals, normals)
         ids = np.where(hit, self.mesh_ids[np.maximum(raw["mesh_index"], 0)], 0).astype(np.int32)
         return RayHits(
             hit=hit,

@@ -35,6 +35,8 @@ class Shading:
     shadow_strength: float = 0.6
     """Fraction of a light's diffuse term removed in its shadow (soft, since rooms bounce light)."""
     gamma: float = 1.0 / 1.6
+    shadow_stride: int = 1
+    """Cast shadow rays at every n-th pixel in x and y and repeat the result (speed against sharp shadows)."""
 
 
 @dataclass(frozen=True)
@@ -48,23 +50,24 @@ class RenderedFrame:
     hits: RayHits
 
 
-def _hash(p: NDArray[np.float64]) -> NDArray[np.float64]:
+def _hash(p: NDArray) -> NDArray[np.float64]:
     """A deterministic pseudo-random value in [0, 1) per row of integer-like coordinates [n, 3]."""
-    s = np.sin(p @ np.array([12.9898, 78.233, 37.719])) * 43758.5453
+    s = np.sin(np.asarray(p, np.float64) @ np.array([12.9898, 78.233, 37.719])) * 43758.5453
     return s - np.floor(s)
 
 
 def texture_factor(code: int, local: NDArray[np.float64], seed: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Multiplicative RGB factor [n, 3] of one texture at local points [n, 3] (metres) with per-point seeds [n]."""
+    """Multiplicative RGB factor [n, 3] (or [n, 1] for grey patterns) of one texture at local points [n, 3] (metres) with per-point seeds [n]."""
+    local = local.astype(np.float32, copy=False)
     x, y, z = local[:, 0], local[:, 1], local[:, 2]
-    ph = seed * 37.0
+    ph = seed.astype(np.float32) * np.float32(37.0)
     if code == Texture.WOOD:
         g = 0.86 + 0.1 * np.sin(2 * np.pi * (x * 7.0 + 0.8 * np.sin(3.0 * (y + z) + ph) + ph))
         g += 0.04 * np.sin(x * 90.0 + ph)
-        return np.repeat(g[:, None], 3, axis=1)
+        return g[:, None]
     if code == Texture.FABRIC:
-        g = 0.9 + 0.07 * np.sin(x * 140.0 + ph) * np.sin((y + z) * 140.0) + 0.04 * np.sin(z * 11.0 + x * 5.0 + ph)
-        return np.repeat(g[:, None], 3, axis=1)
+        g = 0.93 + 0.04 * np.sin(x * 140.0 + ph) * np.sin((y + z) * 140.0) + 0.04 * np.sin(z * 11.0 + x * 5.0 + ph)
+        return g[:, None]
     if code == Texture.PLANKS:
         width, length = 0.16, 1.3
         row = np.floor(y / width)
@@ -90,79 +93,98 @@ def texture_factor(code: int, local: NDArray[np.float64], seed: NDArray[np.float
         return np.stack([g * 0.9, g, g * 0.8], 1)
     if code == Texture.PAINT:
         g = 0.97 + 0.03 * np.sin(x * 3.0 + ph) * np.sin(y * 2.5 + z * 3.5)
-        return np.repeat(g[:, None], 3, axis=1)
+        return g[:, None]
     g = 0.96 + 0.04 * np.sin(x * 13.0 + y * 7.0 + z * 11.0 + ph)
-    return np.repeat(g[:, None], 3, axis=1)
+    return g[:, None]
 
 
 class Renderer:
     """Renders RGB, depth and id buffers of a static scene of ``RenderMesh`` from any ``Camera``.
 
     One ray cast per frame gives depth, ids and the surface points; shading adds one shadow cast per
-    light when ``shading.shadows`` is on.
+    light when ``shading.shadows`` is on (at every ``shading.shadow_stride``-th pixel).
     """
 
     def __init__(self, meshes: Sequence[RenderMesh], shading: Shading | None = None, threads: int = 0):
         self.caster = RayCaster(meshes, threads=threads)
         self.shading = shading or Shading()
         meshes = self.caster.meshes
-        self.face_colors = np.concatenate([m.face_colors for m in meshes]).astype(np.float64)
+        self.face_colors = np.concatenate([m.face_colors for m in meshes]).astype(np.float32)
         self.face_textures = np.concatenate([m.face_textures for m in meshes])
-        local_from_world = []
+        rots, trans = [], []
         for m in meshes:
             rot, t = m.world_from_local[:3, :3], m.world_from_local[:3, 3]
-            local_from_world.append(np.concatenate([rot.T, (-rot.T @ t)[:, None]], axis=1))
-        self.local_from_world = np.stack(local_from_world)  # [m, 3, 4]
-        self.seeds = np.array([m.texture_seed for m in meshes], np.float64)
+            rots.append(rot.T)
+            trans.append(-rot.T @ t)
+        self.local_rot = np.stack(rots).astype(np.float32)  # [m, 3, 3] local_from_world rotation
+        self.local_trans = np.stack(trans).astype(np.float32)  # [m, 3]
+        self.seeds = np.array([m.texture_seed for m in meshes], np.float32)
+        self.non_identity = np.array([not np.allclose(m.world_from_local, np.eye(4)) for m in meshes])
 
-    def albedo(self, hits: RayHits) -> NDArray[np.float64]:
-        """Textured albedo [n, 3] of the hit pixels (in ``hits.hit`` order)."""
-        sel = hits.hit
-        face = hits.face_index[sel]
-        mesh = hits.mesh_index[sel]
-        pts = hits.points[sel]
+    def albedo(self, hits: RayHits) -> NDArray[np.float32]:
+        """Textured albedo [H * W, 3] of every pixel (misses get the first mesh's; mask them with hits.hit)."""
+        face = np.maximum(hits.face_index.ravel(), 0)
+        mesh = np.maximum(hits.mesh_index.ravel(), 0)
+        pts = hits.points.reshape(-1, 3)
         col = self.face_colors[face]
         codes = self.face_textures[face]
-        lfw = self.local_from_world[mesh]
-        local = np.einsum("nij,nj->ni", lfw[:, :, :3], pts) + lfw[:, :, 3]
+        # only meshes with a non-identity local frame pay for the per-pixel transform
+        moving = self.non_identity[mesh]
+        if moving.all():
+            local = np.einsum("nij,nj->ni", self.local_rot[mesh], pts) + self.local_trans[mesh]
+        else:
+            local = pts.copy()
+            idx = np.flatnonzero(moving)
+            if len(idx):
+                mi = mesh[idx]
+                local[idx] = np.einsum("nij,nj->ni", self.local_rot[mi], pts[idx]) + self.local_trans[mi]
         seed = self.seeds[mesh]
-        for code in np.unique(codes):
-            m = codes == code
-            col[m] *= texture_factor(int(code), local[m], seed[m])
+        present = np.flatnonzero(np.bincount(codes, minlength=256))
+        for code in present:
+            if len(present) == 1:
+                col *= texture_factor(int(code), local, seed)
+            else:
+                m = codes == code
+                col[m] *= texture_factor(int(code), local[m], seed[m])
         return col
 
     def render(self, camera: Camera) -> RenderedFrame:
         """RGB, depth and ids of one camera (see ``RenderedFrame``)."""
         hits = self.caster.cast_camera(camera)
         h, w = hits.depth.shape
-        rgb = np.zeros((h, w, 3), np.uint8)
-        if hits.hit.any():
-            col = self.albedo(hits)
-            light = self.irradiance(hits)
-            val = np.clip(col * light[:, None], 0.0, 1.0) ** self.shading.gamma
-            rgb[hits.hit] = (val * 255.0 + 0.5).astype(np.uint8)
+        col = self.albedo(hits)
+        light = self.irradiance(hits)
+        val = np.clip(col * light[:, None], 0.0, 1.0) ** np.float32(self.shading.gamma)
+        rgb = (val * 255.0 + 0.5).astype(np.uint8).reshape(h, w, 3)
+        rgb[~hits.hit] = 0
         return RenderedFrame(rgb=rgb, depth=hits.depth, ids=hits.ids, hits=hits)
 
-    def irradiance(self, hits: RayHits) -> NDArray[np.float64]:
-        """Ambient + diffuse light [n] at the hit pixels (in ``hits.hit`` order)."""
+    def irradiance(self, hits: RayHits) -> NDArray[np.float32]:
+        """Ambient + diffuse light [H * W] at every pixel."""
         sh = self.shading
-        pts = hits.points[hits.hit]
-        nrm = hits.normals[hits.hit].astype(np.float64)
-        total = np.full(len(pts), sh.ambient)
+        h, w = hits.depth.shape
+        pts = hits.points.reshape(-1, 3)
+        nrm = hits.normals.reshape(-1, 3)
+        total = np.full(len(pts), sh.ambient, np.float32)
+        step = max(1, int(sh.shadow_stride))
         for light in sh.lights:
-            lp = np.asarray(light.position, np.float64)
+            lp = np.asarray(light.position, np.float32)
             d = lp - pts
             dist2 = np.einsum("ni,ni->n", d, d)
             cos = np.einsum("ni,ni->n", nrm, d) / np.sqrt(np.maximum(dist2, 1e-12))
             diffuse = light.intensity * np.clip(cos, 0.0, None) / (1.0 + light.falloff * dist2)
             if sh.shadows:
-                lit = cos > 0
-                if lit.any():
-                    occ = self.caster.occluded(pts[lit] + nrm[lit] * 2e-3, lp)
-                    factor = np.ones(len(pts))
-                    factor[np.flatnonzero(lit)[occ]] = 1.0 - sh.shadow_strength
-                    diffuse = diffuse * factor
-            total += diffuse
+                grid = np.zeros((h, w), bool)
+                grid[::step, ::step] = True
+                sample = grid.ravel() & (cos > 0) & hits.hit.ravel()
+                idx = np.flatnonzero(sample)
+                occ = np.zeros(h * w, bool)
+                occ[idx] = self.caster.occluded(pts[idx] + nrm[idx] * 2e-3, lp)
+                if step > 1:
+                    occ = occ.reshape(h, w)[::step, ::step]
+                    occ = np.repeat(np.repeat(occ, step, 0), step, 1)[:h, :w].ravel()
+                diffuse = np.where(occ, diffuse * (1.0 - sh.shadow_strength), diffuse)
+            total += diffuse.astype(np.float32)
         return total
 
 

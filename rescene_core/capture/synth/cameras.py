@@ -7,8 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from shapely.geometry import MultiPolygon, Point
+from shapely.geometry import LineString, Point
 from shapely.ops import unary_union
+from shapely.prepared import prep
 
 from rescene_core.capture.synth.layout import Layout
 from rescene_core.capture.synth.presets import SynthPreset
@@ -63,6 +64,32 @@ def _inside_object(lay: Layout, p: NDArray, margin: float) -> bool:
     return False
 
 
+def _waypoint_loop(free, rng: np.random.Generator, spacing: float = 0.25, count: int = 9) -> LineString:
+    """A closed walk through the free floor: farthest-point waypoints on a grid, visited nearest-first."""
+    x0, y0, x1, y1 = free.bounds
+    gx, gy = np.meshgrid(np.arange(x0, x1 + 1e-9, spacing), np.arange(y0, y1 + 1e-9, spacing))
+    cand = np.column_stack([gx.ravel(), gy.ravel()])
+    pf = prep(free)
+    cand = np.array([c for c in cand if pf.contains(Point(c[0], c[1]))])
+    if len(cand) < 3:
+        c = np.array(free.representative_point().coords[0])
+        cand = c + np.array([[0.3, 0.0], [0.0, 0.3], [-0.3, 0.0], [0.0, -0.3]])
+    chosen = [int(rng.integers(len(cand)))]
+    dist = np.linalg.norm(cand - cand[chosen[0]], axis=1)
+    for _ in range(min(count, len(cand)) - 1):
+        chosen.append(int(np.argmax(dist)))
+        dist = np.minimum(dist, np.linalg.norm(cand - cand[chosen[-1]], axis=1))
+    pts = cand[chosen]
+    order, left = [0], set(range(1, len(pts)))
+    while left:
+        last = pts[order[-1]]
+        nxt = min(left, key=lambda i: (float(np.linalg.norm(pts[i] - last)), i))
+        order.append(nxt)
+        left.remove(nxt)
+    loop = [tuple(pts[i]) for i in order]
+    return LineString(loop + [loop[0]])
+
+
 def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> CameraPlan:
     """Plan ``preset.frames`` cameras over the furnished room (see module docstring)."""
     room = lay.room
@@ -71,17 +98,12 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
     n_far = int(round(n * preset.distant_fraction))
     n_walk = n - n_close - n_far
     floor_objs = [o.footprint for o in lay.objects if o.relation == Relation.RESTS_ON and o.parent == Root.FLOOR]
-    free = room.polygon.buffer(-0.45)
+    free = room.polygon.buffer(-0.4)
     if floor_objs:
-        free = free.difference(unary_union(floor_objs).buffer(0.3))
-    if isinstance(free, MultiPolygon):
-        free = max(free.geoms, key=lambda g: g.area)
-    loop_region = free.buffer(-0.3) if free.buffer(-0.3).area > 0.5 else free
-    if isinstance(loop_region, MultiPolygon):
-        loop_region = max(loop_region.geoms, key=lambda g: g.area)
-    if loop_region.is_empty:
-        loop_region = room.polygon.buffer(-0.6)
-    ring = loop_region.exterior
+        free = free.difference(unary_union(floor_objs).buffer(0.2))
+    if free.is_empty or free.area < 0.2:
+        free = room.polygon.buffer(-0.3)
+    ring = _waypoint_loop(free, rng)
     centre = np.array(room.polygon.centroid.coords[0])
     phase0 = float(rng.uniform(0, 1))
 
@@ -90,6 +112,12 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
     for k in range(n_walk):
         s = (phase0 + k / n_walk) % 1.0
         p = np.array(ring.interpolate(s, normalized=True).coords[0])
+        for j in range(1, 25):  # a straight leg may cross tall furniture: step along the loop to free floor
+            if not _inside_object(lay, np.array([p[0], p[1], 1.5]), 0.15):
+                break
+            s2 = (s + (j // 2 + 1) * 0.004 * (1 if j % 2 else -1)) % 1.0
+            p = np.array(ring.interpolate(s2, normalized=True).coords[0])
+        ahead = np.array(ring.interpolate((s + 0.01) % 1.0, normalized=True).coords[0]) - p
         h = float(
             np.clip(
                 np.mean(preset.walk_height) + 0.15 * np.sin(2 * np.pi * 3 * s) + rng.normal(0, 0.04),
@@ -97,7 +125,8 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
             )
         )
         to_c = centre - p
-        yaw = np.arctan2(to_c[1], to_c[0]) + np.radians(55) * np.sin(2 * np.pi * 5 * s + 1.0) + rng.normal(0, 0.1)
+        base = np.arctan2(to_c[1], to_c[0]) if np.linalg.norm(to_c) > 1.0 else np.arctan2(ahead[1], ahead[0])
+        yaw = base + np.radians(55) * np.sin(2 * np.pi * 5 * s + 1.0) + rng.normal(0, 0.1)
         pitch = np.radians(-14 + rng.normal(0, 5))
         eye = np.array([p[0], p[1], h])
         fwd = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), np.sin(pitch)])

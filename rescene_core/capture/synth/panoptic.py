@@ -41,8 +41,10 @@ def boundary_noise(
     r = max(1, int(round(preset.mask_boundary_px * ids.shape[1] / 640)))
     if preset.mask_boundary_prob <= 0 or preset.mask_boundary_px <= 0:
         return ids, 0
-    size = 2 * r + 1
-    band = ndimage.maximum_filter(ids, size=size) != ndimage.minimum_filter(ids, size=size)
+    edge = np.zeros(ids.shape, np.uint8)
+    edge[:, 1:] |= ids[:, 1:] != ids[:, :-1]
+    edge[1:] |= ids[1:] != ids[:-1]
+    band = ndimage.maximum_filter(edge, size=2 * r) > 0
     ys, xs = np.nonzero(band)
     pick = rng.random(len(ys)) < preset.mask_boundary_prob
     ys, xs = ys[pick], xs[pick]
@@ -123,19 +125,33 @@ class Accumulator:
     _pending: list = field(default_factory=list)
 
     def add(self, depth: NDArray, ids: NDArray, rgb: NDArray, K: NDArray, world_from_cam: NDArray) -> None:
+        """Back-project the valid, labelled pixels of one frame and accumulate them."""
+        self.push(*self.frame_points(depth, ids, rgb, K, world_from_cam))
+
+    def frame_points(
+        self, depth: NDArray, ids: NDArray, rgb: NDArray, K: NDArray, world_from_cam: NDArray
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Voxel keys [n] and (x, y, z, r, g, b, 1) rows [n, 7] of one frame's valid, labelled pixels
+        (every ``stride``-th pixel); pure, so frames can be processed in parallel."""
         s = self.stride
-        d, m, c = depth[::s, ::s], ids[::s, ::s], rgb[::s, ::s]
+        d, m = depth[::s, ::s], ids[::s, ::s]
         vs, us = np.nonzero((d > 0) & (m > 0))
-        z = d[vs, us].astype(np.float64)
-        u = us * s + 0.5
-        v = vs * s + 0.5
-        pc = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=1)
-        pw = pc @ world_from_cam[:3, :3].T + world_from_cam[:3, 3]
+        z = d[vs, us]
+        x = ((us * s + 0.5 - K[0, 2]) / K[0, 0]).astype(np.float32) * z
+        y = ((vs * s + 0.5 - K[1, 2]) / K[1, 1]).astype(np.float32) * z
+        rot = world_from_cam[:3, :3].astype(np.float32)
+        pw = np.empty((len(z), 7), np.float64)
+        pw[:, :3] = np.stack([x, y, z], axis=1) @ rot.T + world_from_cam[:3, 3].astype(np.float32)
+        pw[:, 3:6] = rgb[vs * s, us * s]
+        pw[:, 6] = 1.0
         inst = m[vs, us].astype(np.int64)
-        q = np.floor(pw / self.voxel_of[inst][:, None]).astype(np.int64) + 32768
+        q = np.floor(pw[:, :3] / self.voxel_of[inst][:, None]).astype(np.int64) + 32768
         key = (inst << 48) | (q[:, 0] << 32) | (q[:, 1] << 16) | q[:, 2]
-        vals = np.concatenate([pw, c[vs, us].astype(np.float64), np.ones((len(z), 1))], axis=1)
-        self._pending.append((key, vals))
+        return key, pw
+
+    def push(self, key: NDArray[np.int64], values: NDArray[np.float64]) -> None:
+        """Accumulate one frame's ``frame_points`` (call in frame order for identical sums)."""
+        self._pending.append((key, values))
         if len(self._pending) >= self.batch:
             self._reduce()
 

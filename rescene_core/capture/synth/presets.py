@@ -49,12 +49,16 @@ class SynthPreset(BaseModel):
     # rendering
     shadows: bool = True
     """Cast shadows from the ceiling light."""
+    shadow_stride: int = 2
+    """Shadow rays at every n-th pixel in x and y (see ``Shading.shadow_stride``)."""
     rgb_noise: float = 1.5
     """Standard deviation of the image sensor noise (8-bit levels)."""
+    threads: int = 2
+    """Frames rendered concurrently (results do not depend on it)."""
     # panoptic errors (the dials)
     depth_noise_base: float = 0.002
     """Depth noise standard deviation at 0 m (m)."""
-    depth_noise_quadratic: float = 0.0025
+    depth_noise_quadratic: float = 0.0015
     """Depth noise growth: sigma(z) = base + quadratic * z^2 (m / m^2)."""
     depth_dropout: float = 0.01
     """Fraction of pixels whose depth is invalid (0)."""
@@ -79,12 +83,14 @@ class SynthPreset(BaseModel):
     # point clouds
     fusion_stride: int = 2
     """Pixel stride when back-projecting masked depth into instance point clouds."""
-    object_voxel_ratio: float = 0.012
+    object_voxel_ratio: float = 0.014
     """Voxel size of an object's point cloud as a fraction of its bounding-box diagonal."""
-    object_voxel_range: tuple[float, float] = (0.004, 0.02)
+    object_voxel_range: tuple[float, float] = (0.006, 0.025)
     """Clamp of the object voxel size (m)."""
     structure_voxel: float = 0.05
     """Voxel size of floor, wall and ceiling point clouds (m)."""
+    max_points_per_instance: int = 12000
+    """Largest point cloud kept per instance; larger ones are subsampled at random (seeded)."""
 
     def with_overrides(self, **overrides) -> SynthPreset:
         """A copy with some fields replaced (validated)."""

@@ -4,6 +4,7 @@ point clouds, and the ground truth. ``write_synth`` writes it as a capture with 
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -98,8 +99,7 @@ def _structure_meshes(
             dcol = np.asarray(WOODS[int(rng.integers(len(WOODS)))])
             cols += [dcol, dcol]
             tex += [Texture.WOOD, Texture.WOOD]
-        frame = np.eye(4)
-        frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = [*u, 0], [*n, 0], [0, 0, 1], [*p0, 0]
+        frame = np.eye(4)  # wall paint is isotropic: evaluate it in world coordinates (cheaper)
         meshes.append(
             RenderMesh(
                 iid,
@@ -145,13 +145,13 @@ def _lights(room: Room) -> tuple[Light, ...]:
     z = room.height - 0.25
     if abs(poly.area - poly.envelope.area) < 1e-6:
         c = poly.centroid
-        return (Light((c.x, c.y, z), 1.0),)
+        return (Light((c.x, c.y, z), 0.75),)
     x0, y0, x1, y1 = poly.bounds
     out = []
     for half in (shapely_box(x0, y0, (x0 + x1) / 2, y1), shapely_box((x0 + x1) / 2, y0, x1, y1)):
         part = poly.intersection(half)
         c = part.representative_point() if not part.centroid.within(poly) else part.centroid
-        out.append(Light((c.x, c.y, z), 0.7))
+        out.append(Light((c.x, c.y, z), 0.55))
     return tuple(out)
 
 
@@ -174,7 +174,10 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     t = time.perf_counter()
     struct_meshes, structure, struct_instances = _structure_meshes(room, lay, rng_look)
     obj_meshes = [_object_mesh(o, rng_look) for o in lay.objects]
-    renderer = Renderer(struct_meshes + obj_meshes, Shading(lights=_lights(room), shadows=cfg.shadows))
+    renderer = Renderer(
+        struct_meshes + obj_meshes,
+        Shading(lights=_lights(room), ambient=0.3, shadows=cfg.shadows, shadow_stride=cfg.shadow_stride),
+    )
     timings["scene_build"] = time.perf_counter() - t
 
     # per-object decisions of the panoptic model: ids, splits, misses, wrong labels
@@ -230,39 +233,61 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     acc = Accumulator(voxel_of, cfg.fusion_stride)
     pixel_counts = np.zeros(max_id + 1, np.int64)
     min_px = max(20, H * W // 2000)
-    timings.update(render=0.0, errors=0.0, fusion=0.0)
-    for k in range(T):
+    noise_bank = None
+    if cfg.rgb_noise > 0:
+        bank_rng = np.random.default_rng([seed, 1])
+        noise_bank = np.round(bank_rng.standard_normal(H * W * 3 + 65536) * cfg.rgb_noise).astype(np.int16)
+
+    def one_frame(k: int) -> dict[str, Any]:
+        # each frame has its own random stream, so the result does not depend on thread scheduling
+        rng_k = np.random.default_rng([seed, 2, k])
         cam = Camera(plan.K, plan.world_from_cam[k], W, H)
         t = time.perf_counter()
         frame = renderer.render(cam)
-        timings["render"] += time.perf_counter() - t
+        t_render = time.perf_counter() - t
         t = time.perf_counter()
         rid = frame.ids
-        is_obj = rid >= OBJECT_RENDER_BASE
-        obj_frames[k] = np.where(is_obj, rid - OBJECT_RENDER_BASE, 0)
         ids = lut[rid]
         for oid, (second, axis, thr) in split_of.items():
             sel = rid == OBJECT_RENDER_BASE + oid
             if sel.any():
-                p = frame.hits.points[sel]
+                p = frame.hits.points[sel].astype(np.float64)
                 local = p @ local_from_world[oid][:3, :3].T + local_from_world[oid][:3, 3]
-                part = np.where(local[:, axis] > thr, second, ids[sel])
-                ids[sel] = part
-        ids, _ = boundary_noise(ids, cfg, rng_frames)
-        ids, event = drift(ids, object_instance_ids, cfg, rng_frames, min_px)
-        if event is not None:
-            events.append({"kind": "drift", "frame": k, **event})
-        d = depth_with_noise(frame.depth, cfg, rng_frames)
+                ids[sel] = np.where(local[:, axis] > thr, second, ids[sel])
+        ids, _ = boundary_noise(ids, cfg, rng_k)
+        ids, event = drift(ids, object_instance_ids, cfg, rng_k, min_px)
+        d = depth_with_noise(frame.depth, cfg, rng_k)
         img = frame.rgb
-        if cfg.rgb_noise > 0:
-            noise = rng_frames.standard_normal(img.shape, dtype=np.float32) * cfg.rgb_noise
-            img = np.clip(img + noise, 0, 255).astype(np.uint8)
-        rgb[k], masks[k], depth[k] = img, ids, d
-        pixel_counts += np.bincount(ids.ravel(), minlength=max_id + 1)[: max_id + 1]
-        timings["errors"] += time.perf_counter() - t
+        if noise_bank is not None:
+            start = int(rng_k.integers(0, 65536))
+            noise = noise_bank[start : start + img.size].reshape(img.shape)
+            img = np.clip(img.astype(np.int16) + noise, 0, 255).astype(np.uint8)
+        t_err = time.perf_counter() - t
         t = time.perf_counter()
-        acc.add(d, ids, img, plan.K, plan.world_from_cam[k])
-        timings["fusion"] += time.perf_counter() - t
+        fused = acc.frame_points(d, ids, img, plan.K, plan.world_from_cam[k])
+        return {
+            "rgb": img,
+            "ids": ids,
+            "depth": d,
+            "objects": np.where(rid >= OBJECT_RENDER_BASE, rid - OBJECT_RENDER_BASE, 0).astype(np.int32),
+            "event": event,
+            "fused": fused,
+            "times": (t_render, t_err, time.perf_counter() - t),
+        }
+
+    timings.update(render=0.0, errors=0.0, fusion=0.0)
+    t_loop = time.perf_counter()
+    renderer.caster.cast_camera(Camera(plan.K, plan.world_from_cam[0], W, H))  # builds the BVH once, here
+    with ThreadPoolExecutor(max_workers=max(1, cfg.threads)) as pool:
+        for k, out in enumerate(pool.map(one_frame, range(T))):
+            rgb[k], masks[k], depth[k], obj_frames[k] = out["rgb"], out["ids"], out["depth"], out["objects"]
+            if out["event"] is not None:
+                events.append({"kind": "drift", "frame": k, **out["event"]})
+            pixel_counts += np.bincount(out["ids"].ravel(), minlength=max_id + 1)[: max_id + 1]
+            acc.push(*out["fused"])
+            for key, v in zip(("render", "errors", "fusion"), out["times"]):
+                timings[key] += v
+    timings["frames_wall"] = time.perf_counter() - t_loop
 
     t = time.perf_counter()
     clouds = acc.clouds()
@@ -281,6 +306,13 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     instances.sort(key=lambda inst: int(inst.id))
     known = {int(i.id) for i in instances}
     clouds = {i: c for i, c in clouds.items() if i in known and len(c[0])}
+    for i in sorted(clouds):
+        pts, cols = clouds[i]
+        if len(pts) > cfg.max_points_per_instance:
+            keep = np.sort(
+                np.random.default_rng([seed, 3, i]).choice(len(pts), cfg.max_points_per_instance, replace=False)
+            )
+            clouds[i] = (pts[keep], cols[keep])
     point_ids, offsets, points, colors = points_to_csr(clouds)
     relations = tuple(GtRelation(o.object_id, o.relation, o.parent, o.wall_id) for o in lay.objects)
     gt = GroundTruth(tuple(gt_objects), relations, room.shell(), tuple(s for s in structure if s.instance_id in seen))
@@ -360,7 +392,7 @@ def synth_command(out: str | Path, preset: str = "standard", seed: int = 0, over
     """`rescene synth`: write the capture and its pictures, print what was made and where; exit code."""
     t = time.perf_counter()
     scene = make_scene(preset, seed)
-    paths = write_scene(out, scene, overwrite=overwrite, pictures=False)
+    paths = write_scene(out, scene, overwrite=overwrite, pictures=True)
     elapsed = time.perf_counter() - t
     counts: dict[str, int] = {}
     for e in scene.events:
