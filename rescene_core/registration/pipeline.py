@@ -301,6 +301,8 @@ def register_detailed(
         "rotation_gate_deg": rotation_gate_angle(final, prior),
         "method": method,
     }
+    diag["rmse"] = final_fit.rmse
+    diag["inlier_ratio"] = final_fit.inlier_ratio
     diag["seconds"] = time.perf_counter() - start
     if final_fit.inlier_ratio < config.min_result_inlier_ratio:
         reason = f"final inlier ratio {final_fit.inlier_ratio:.3f} < {config.min_result_inlier_ratio} ({method})"
