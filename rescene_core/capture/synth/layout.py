@@ -53,6 +53,8 @@ class Placed:
     z0: float
     z1: float
     ancestors: frozenset[int] = frozenset()
+    top_limit: float = np.inf
+    """Highest world z the object and anything stacked on it may reach (a shelf board above, the ceiling)."""
     children_on: dict[int, list[Polygon]] = field(default_factory=dict)
 
     @property
@@ -259,7 +261,13 @@ class Layout:
     # -- on other objects ---------------------------------------------------------------------------------
 
     def on(
-        self, parent: Placed, model: ObjectModel, facing: bool = False, back: bool = False, tries: int = 30
+        self,
+        parent: Placed,
+        model: ObjectModel,
+        facing: bool = False,
+        back: bool = False,
+        tries: int = 30,
+        yaw_jitter: float = 0.2,
     ) -> Placed | None:
         """Rest ``model`` on one of ``parent``'s support surfaces, clear of siblings and everything else."""
         sups = [(k, s) for k, s in enumerate(parent.model.supports) if s.clearance >= model.size[2] + 0.01]
@@ -267,7 +275,7 @@ class Layout:
             return None
         for _ in range(tries):
             k, sup = sups[int(self.rng.integers(len(sups)))]
-            yaw = float(self.rng.uniform(-0.2, 0.2)) if facing else float(self.rng.uniform(-np.pi, np.pi))
+            yaw = float(self.rng.uniform(-yaw_jitter, yaw_jitter)) if facing else float(self.rng.uniform(-np.pi, np.pi))
             pose_local = self._on_support(model, sup, yaw, back)
             if pose_local is None:
                 continue
@@ -278,11 +286,14 @@ class Layout:
             pose = parent.world_from_object @ pose_local
             fp = footprint(model, pose)
             z0 = float(pose[2, 3])
+            limit = min(parent.top_limit, float(parent.world_from_object[2, 3]) + sup.z + sup.clearance)
+            if z0 + model.size[2] > limit - 0.005:
+                continue
             ancestors = parent.ancestors | {parent.object_id}
             if not self.free(fp, z0, z0 + model.size[2], 0.005, ignore=ancestors):
                 continue
             siblings.append(fp_local)
-            return self._add(model, pose, Relation.RESTS_ON, parent.object_id, None, ancestors)
+            return self._add(model, pose, Relation.RESTS_ON, parent.object_id, None, ancestors, limit)
         return None
 
     def _on_support(self, model: ObjectModel, sup: Support, yaw: float, back: bool):
@@ -429,9 +440,23 @@ def furnish(room: Room, preset: SynthPreset, rng: np.random.Generator) -> Layout
     for s in supports:
         if s.label == "nightstand":
             step(lay.on, s, build("table lamp", rng))
+    stacks: list[Placed] = []
     for s in shelves:
         for _ in range(3 if cluttered else 2):
-            step(lay.on, s, build("book stack", rng), facing=True)
+            placed = step(lay.on, s, build("book stack", rng), facing=True)
+            if placed is not None:
+                stacks.append(placed)
+    if cluttered:
+        for host in [p for p in supports if p.label in ("desk", "dining table", "cabinet")]:
+            for _ in range(2):
+                placed = step(lay.on, host, build("book stack", rng), facing=True)
+                if placed is not None:
+                    stacks.append(placed)
+        for base in list(stacks):
+            if rng.uniform() < 0.6 and base.model.supports:
+                sup = base.model.supports[0]
+                small = CATEGORIES["book stack"](rng, fit=(sup.x1 - sup.x0, sup.y1 - sup.y0))
+                step(lay.on, base, small, facing=True, yaw_jitter=0.05)
     # on walls
     if cabinets and rng.uniform() < 0.7:
         step(lay.on_wall, build("TV", rng), (0.25, 0.45), above=cabinets[0])
@@ -451,7 +476,6 @@ def furnish(room: Room, preset: SynthPreset, rng: np.random.Generator) -> Layout
     # fill up to the target with small things and pictures
     fillers = ("book stack", "small plant", "picture", "book stack", "table lamp", "picture")
     k = 0
-    stacks: list[Placed] = []
     while not full() and k < 40:
         name = fillers[k % len(fillers)]
         k += 1

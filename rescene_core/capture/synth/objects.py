@@ -373,10 +373,13 @@ def monitor(rng: np.random.Generator) -> ObjectModel:
     return b.build()
 
 
-def book_stack(rng: np.random.Generator) -> ObjectModel:
+def book_stack(rng: np.random.Generator, fit: tuple[float, float] | None = None) -> ObjectModel:
+    """A stack of 2-5 books; ``fit`` = (width, depth) it must fit in (to stack it on another stack)."""
     b = Builder("book stack")
     n = int(rng.integers(2, 6))
     w0, d0 = _u(rng, 0.15, 0.23), _u(rng, 0.2, 0.28)
+    if fit is not None:
+        w0, d0 = min(w0, fit[0] * 0.8), min(d0, fit[1] * 0.8)
     z = 0.0
     for _ in range(n):
         w, d = w0 * _u(rng, 0.8, 1.0), d0 * _u(rng, 0.8, 1.0)
@@ -384,7 +387,7 @@ def book_stack(rng: np.random.Generator) -> ObjectModel:
         t = _u(rng, 0.018, 0.045)
         b.box(dx - w / 2, dx + w / 2, dy - d / 2, dy + d / 2, z, z + t, _pick(rng, BOOKS))
         z += t
-    b.support(-w0 * 0.3, w0 * 0.3, -d0 * 0.3, d0 * 0.3, z, 0.5)
+    b.support(-w0 * 0.4, w0 * 0.4, -d0 * 0.4, d0 * 0.4, z, 0.5)
     return b.build()
 
 
