@@ -263,10 +263,13 @@ class SceneGraphConfig(_Section):
     """Geometric backend: largest distance of a child's back to a wall plane for a mounts-on-wall answer (m)."""
     min_points: int = 20
     """Fewest visible points of an instance to reason about it geometrically."""
+    wall_max_depth: float = 0.15
+    """Geometric backend: a thing hung on a wall spans at most this distance off the wall in one view (m)."""
     floor_sigma: float = 0.05
     """Fusion: floor-contact prior falls off as exp(-(gap/sigma)^2) with the bottom-to-floor gap (m)."""
-    wall_sigma: float = 0.06
-    """Fusion: wall-alignment prior falls off as exp(-(residual/sigma)^2) with the back-to-wall residual (m)."""
+    wall_sigma: float = 0.10
+    """Fusion: wall-alignment prior falls off as exp(-(residual/sigma)^2) with the back-to-wall residual (m);
+    the back itself is hidden, so the residual includes the object's thickness."""
     support_sigma: float = 0.05
     """Fusion: object-support prior falls off as exp(-(gap/sigma)^2) with the bottom-to-face gap (m)."""
     upward_normal_deg: float = 25.0

@@ -6,8 +6,14 @@ or its point cloud restricted to the pixels of its mask here) and at the other i
 1. its lowest visible points touch the floor plane -> rests-on floor;
 2. a visible instance that starts lower has surface points at the child's bottom height, under the
    child's footprint -> rests-on that instance (largest footprint overlap);
-3. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
-4. otherwise the nearer of floor and wall, or the highest visible instance beneath it.
+3. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
+   on a wall (spanning at most ``wall_max_depth`` off the wall) -> rests-on floor (its base is out of
+   view, not absent);
+4. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
+5. otherwise the highest visible instance beneath it, else the nearer of floor and wall.
+
+A supporting instance must not rise above the child's bottom right next to it (a bed beside a
+nightstand is not under it); so an object on a middle shelf of a shelving unit is not found here.
 
 Occlusion and partial views make frames disagree, as a VLM's answers do; fusion reconciles them.
 It answers in the prompt's JSON format and does no A/B re-ranking.
@@ -24,6 +30,35 @@ from rescene_core.scenegraph.backend import Query
 from rescene_core.scenegraph.geom import floor_only_shell, heights, lower_surface, nearest_wall, upper_surface
 from rescene_core.scenegraph.prompt import answer_json
 from rescene_core.scenegraph.view import visible_points
+
+OCCLUSION_DEPTH_MARGIN = 0.02
+"""A pixel below an instance hides its base when it shows something nearer by more than this (m)."""
+SPAN_QUANTILE = 0.10
+"""The bulk of an instance's points (this quantile to 1 - it) measures how far it spans off a wall: mask
+edges bleed onto the wall behind and onto far surfaces, so the extremes are not used."""
+OCCLUSION_ROWS = 2
+"""How many pixels below an instance's lowest mask pixel (per image column) are inspected."""
+
+
+def bottom_occluded(view, instance: int) -> bool:
+    """Whether most of the instance's lower outline is hidden in this frame: the pixel just below it shows
+    a nearer instance or lies outside the image. Needs depth (False without)."""
+    if view.depth is None:
+        return False
+    m = view.mask == instance
+    cols = np.flatnonzero(m.any(axis=0))
+    if not len(cols):
+        return False
+    height = m.shape[0]
+    lowest = height - 1 - np.argmax(m[::-1, cols], axis=0)
+    below = lowest + OCCLUSION_ROWS
+    out = below >= height
+    inside = ~out
+    rows, cc = below[inside], cols[inside]
+    other = view.mask[rows, cc]
+    nearer = view.depth[rows, cc] < view.depth[lowest[inside], cc] - OCCLUSION_DEPTH_MARGIN
+    hidden = (other != instance) & (other > 0) & nearer & (view.depth[rows, cc] > 0)
+    return bool((out.sum() + hidden.sum()) > 0.5 * len(cols))
 
 
 class GeometricPredictor:
@@ -45,15 +80,16 @@ class GeometricPredictor:
         pts = {v.display: visible_points(capture, view, int(v.instance)) for v in view.visible}
         h = {d: heights(shell, p) for d, p in pts.items()}
         bottom = {d: lower_surface(h[d]) for d in pts}
+        occluded = {v.display: bottom_occluded(view, int(v.instance)) for v in view.visible}
         entries = []
         for v in view.visible:
             d = v.display
-            relation, parent = self._decide(d, pts, h, bottom, shell, cfg)
+            relation, parent = self._decide(d, pts, h, bottom, occluded, shell, cfg)
             entries.append({"id": d, "category": v.label, "relation": relation, "parent": parent})
         return answer_json(entries)
 
     @staticmethod
-    def _decide(d, pts, h, bottom, shell, cfg) -> tuple[str, int | str]:
+    def _decide(d, pts, h, bottom, occluded, shell, cfg) -> tuple[str, int | str]:
         p, b = pts[d], bottom[d]
         if len(p) < cfg.min_points:
             return Relation.RESTS_ON.value, Root.FLOOR.value
@@ -66,6 +102,9 @@ class GeometricPredictor:
             if q == d or len(pq) < cfg.min_points or not bottom[q] < b - cfg.support_tol:
                 continue
             hq = h[q]
+            near_q = np.isfinite(cKDTree(xy).query(pq[:, :2], distance_upper_bound=cfg.support_radius)[0])
+            if not near_q.any() or upper_surface(hq[near_q]) > b + cfg.support_tol:
+                continue  # q rises above the child's bottom right next to it: beside it, not beneath
             surface = pq[np.abs(hq - b) <= cfg.support_tol][:, :2]
             under = pq[hq < b + cfg.support_tol][:, :2]
             if len(under):
@@ -82,6 +121,13 @@ class GeometricPredictor:
         if best is not None:
             return Relation.RESTS_ON.value, int(best)
         wall, wall_d = nearest_wall(p, shell)
+        flat_on_wall = False
+        if wall is not None and wall_d <= cfg.wall_tol:
+            span = wall.plane.signed_distance(p)
+            lo, hi = np.quantile(span, [SPAN_QUANTILE, 1.0 - SPAN_QUANTILE])
+            flat_on_wall = hi - lo <= cfg.wall_max_depth
+        if occluded.get(d, False) and not flat_on_wall:
+            return Relation.RESTS_ON.value, Root.FLOOR.value  # its base is hidden, not absent
         if wall is not None and wall_d <= cfg.wall_tol:
             return Relation.MOUNTS_ON.value, Root.WALL.value
         if below:
