@@ -63,7 +63,7 @@ worker: $(STAMP) ## start a process worker on the local pool
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect worker start --pool $(POOL)
 
 deploy: $(STAMP) ## register the rescene/scene and split deployments with the server
-	cd deployments && PREFECT_API_URL=$(PREFECT_API_URL) ../$(VENV)/bin/prefect --no-prompt deploy --all
+	PREFECT_API_URL=$(PREFECT_API_URL) $(PY) deployments/deploy.py --prefect-file deployments/prefect.yaml
 
 clean: ## remove demo and benchmark outputs (keeps .venv)
 	rm -rf $(DEMO_DIR) $(BENCH_DIR) .pytest_cache

@@ -81,8 +81,27 @@ def _state_row(stage: str, item: int | None, fut: PrefectFuture) -> dict[str, An
     }
 
 
+_EXC_PREFIX = "Task run encountered an exception "
+
+
+def _row(instance: int, label: str, view_ref: dict | None, miss: Missing | None) -> dict[str, Any]:
+    """The instance's row of the instance table (artifact, manifest, progress listeners)."""
+    view = "-"
+    if view_ref is not None:
+        view = view_ref["numbers"].get("frame", "-") if view_ref["status"] == "ok" else "missing"
+    return {
+        "instance": instance,
+        "label": label,
+        "view": view,
+        "asset": "-",
+        "registration": "missing" if miss else "ok",
+        "missing_stage": miss.stage if miss else "",
+        "missing_reason": miss.reason if miss else "",
+    }
+
+
 def _outcome(instance: int, futures: list[tuple[str, PrefectFuture]]) -> tuple[dict | None, Missing | None, bool]:
-    """(final reference, Missing, failed) of one instance from its stage futures (view, asset, registration).
+    """(final reference, Missing, failed) of one instance from its stage futures (asset, registration).
 
     failed = a task raised (after retries) rather than returning an explicit Missing.
     """
@@ -91,7 +110,7 @@ def _outcome(instance: int, futures: list[tuple[str, PrefectFuture]]) -> tuple[d
         if st.is_completed():
             continue
         if st.is_failed() or st.is_crashed() or st.is_cancelled():
-            reason = (st.message or f"{stage} task ended {st.name}").replace("Task run encountered an exception ", "")
+            reason = (st.message or f"{stage} task ended {st.name}").replace(_EXC_PREFIX, "")
             return None, Missing(InstanceId(instance), stage, reason), True
     ref = futures[-1][1].result()
     return ref, ref_missing(ref), False
@@ -120,7 +139,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
 
     results = run / RESULTS_DIR
     t = {name: _bind(getattr(mod, name), results) for mod, name in [
-        (scene_tasks, "estimate_shell"), (instance_tasks, "select_view"), (instance_tasks, "generate_asset"),
+        (scene_tasks, "estimate_shell"), (instance_tasks, "select_views"), (instance_tasks, "generate_asset"),
         (instance_tasks, "register_instance"), (scene_tasks, "select_keyframes"), (scene_tasks, "predict_relations"),
         (scene_tasks, "fuse_graph"), (scene_tasks, "snapshot_registration"), (scene_tasks, "attach_layout"),
         (scene_tasks, "export"), (scene_tasks, "evaluate"),
@@ -136,32 +155,34 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
 
     try:
         shell_f = t["estimate_shell"].submit(str(run), capture_ref, config.shell)
-        views = t["select_view"].map(rd, cr, ids, unmapped(config.hierview))
-        assets = t["generate_asset"].map(rd, cr, views, unmapped(config.assets))
-        poses = t["register_instance"].map(rd, cr, assets, unmapped(config.registration))
+        views_f = t["select_views"].submit(str(run), capture_ref, ids, config.hierview)
         keyframes_f = t["select_keyframes"].submit(str(run), capture_ref, config.keyframes)
+        wait([views_f])
+        stage_rows.append(_state_row("view", None, views_f))
+        if views_f.state.is_completed():
+            view_refs = views_f.result()
+        else:  # view selection itself failed: every instance is missing at this stage
+            reason = (views_f.state.message or "view selection failed").replace(_EXC_PREFIX, "")
+            failures += [Missing(InstanceId(i), "view", reason) for i in ids]
+            view_refs = []
+        assets = t["generate_asset"].map(rd, cr, view_refs, unmapped(config.assets))
+        poses = t["register_instance"].map(rd, cr, assets, unmapped(config.registration))
+        frames = keyframes_f.result()["frames"]
+        preds = t["predict_relations"].map(rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph))
 
         # fan-in of the instances, reporting progress as each one finishes
         index = {fut: k for k, fut in enumerate(poses)}
-        by_instance: dict[int, dict[str, Any]] = {}
+        by_instance: dict[int, dict[str, Any]] = {
+            m.instance: {"ref": None, "asset": None, "row": _row(m.instance, labels[m.instance], None, m)}
+            for m in failures
+        }
         for done, fut in enumerate(as_completed(list(poses)), start=1):
             k = index[fut]
             i = ids[k]
-            per_stage = [("view", views[k]), ("asset", assets[k]), ("registration", poses[k])]
+            per_stage = [("asset", assets[k]), ("registration", poses[k])]
             wait([f for _, f in per_stage])
             ref, miss, failed = _outcome(i, per_stage)
-            row = {
-                "instance": i,
-                "label": labels[i],
-                "view": "-",
-                "asset": "-",
-                "registration": "missing" if miss else "ok",
-                "missing_stage": miss.stage if miss else "",
-                "missing_reason": miss.reason if miss else "",
-            }
-            if views[k].state.is_completed():
-                vref = views[k].result()
-                row["view"] = vref["numbers"].get("frame", "-") if vref["status"] == "ok" else "missing"
+            row = _row(i, labels[i], view_refs[k], miss)
             if assets[k].state.is_completed():
                 aref = assets[k].result()
                 row["asset"] = f"{aref['numbers'].get('faces', 0)} faces" if aref["status"] == "ok" else "missing"
@@ -173,7 +194,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
             update_progress_artifact(progress_id, 100.0 * done / max(len(ids), 1))
             for listener in PROGRESS_LISTENERS:
                 listener(done, len(ids), row)
-        if not ids:
+        if not view_refs:
             update_progress_artifact(progress_id, 100.0)
         rows = [by_instance[i]["row"] for i in ids]
         ok_poses = [by_instance[i]["ref"] for i in ids if by_instance[i]["ref"] is not None]
@@ -183,8 +204,6 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
         snapshot_f = t["snapshot_registration"].submit(
             str(run), capture_ref, shell_f, ok_assets, ok_poses, export_config
         )
-        frames = keyframes_f.result()["frames"]
-        preds = t["predict_relations"].map(rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph))
         wait(list(preds))
         ok_preds = []
         for frame, fut in zip(frames, preds):

@@ -181,7 +181,11 @@ def executing(run_dir: str | Path, stage: str, item: int | None = None) -> Itera
     start/end/error events with the elapsed seconds, applies injected faults, writes the segment."""
     seg = Segment(Path(run_dir), segment_name(stage, item))
     start = time.perf_counter()
-    seg.log("/task/events", {"stage": stage, "item": item, "event": "start", "seconds": 0.0, "status": "running"})
+    pid = os.getpid()
+    seg.log(
+        "/task/events",
+        {"stage": stage, "item": item, "event": "start", "seconds": 0.0, "status": "running", "pid": pid},
+    )
     try:
         inject_fault(run_dir, stage, item)
         yield seg
@@ -201,7 +205,14 @@ def executing(run_dir: str | Path, stage: str, item: int | None = None) -> Itera
         raise
     seg.log(
         "/task/events",
-        {"stage": stage, "item": item, "event": "end", "seconds": time.perf_counter() - start, "status": "ok"},
+        {
+            "stage": stage,
+            "item": item,
+            "event": "end",
+            "seconds": time.perf_counter() - start,
+            "status": "ok",
+            "pid": pid,
+        },
     )
     seg.close()
 

@@ -1,4 +1,5 @@
-"""Per-instance tasks: view selection -> asset generation -> registration (mapped over instances).
+"""Instance tasks: view selection (all instances at once), then asset generation -> registration mapped
+over instances.
 
 Each writes ``RUN/instances/<id>/{view,asset,pose}.json`` (and ``asset.glb``) and returns a reference.
 An instance a stage cannot handle comes back as an explicit Missing (status "missing"); later stages
@@ -30,32 +31,43 @@ def _passthrough(run_dir: str, rel: str, kind: str, instance: int, missing: Miss
 
 
 @stage_task("view")
-def select_view(run_dir: str, capture: dict[str, Any], instance: int, config: HierViewConfig) -> dict[str, Any]:
-    """HierView for one instance -> instances/<id>/view.json."""
-    rel = f"{instance_dir(instance)}/view.json"
-    with executing(run_dir, "view", instance) as seg:
+def select_views(
+    run_dir: str, capture: dict[str, Any], instances: list[int], config: HierViewConfig
+) -> list[dict[str, Any]]:
+    """HierView for every instance in one call -> instances/<id>/view.json; one reference per instance.
+
+    One task rather than one per instance: HierView shares its per-frame statistics (a pass over every
+    mask of every frame) between instances, so per-instance calls would repeat that pass N times; all
+    instances have the same inputs (the capture and the config), so nothing is lost for caching.
+    """
+    with executing(run_dir, "view") as seg:
         cap = open_capture(capture["path"], validate=False)
-        result = stages.select_views(cap, config, [instance]).get(instance)
-        if result is None:
-            result = Missing(InstanceId(instance), "view", "view selection returned nothing for this instance")
-        if isinstance(result, Missing):
-            seg.log("/hierview/view_scores", {"instance": instance, "frame": None, "reason": result.reason})
-            return _passthrough(run_dir, rel, "view", instance, result)
-        write_json_atomic(Path(run_dir) / rel, {"instance": instance, "status": "ok", "view": result.to_json()})
-        seg.log(
-            "/hierview/view_scores",
-            {
-                "instance": instance,
-                "frame": result.frame,
-                "method": result.method,
-                "reason": result.reason,
-                "semantic_backend": result.semantic_backend,
-                "candidates": list(result.candidates),
-            },
-        )
-        return make_ref(
-            run_dir, rel, "view", instance, numbers={"frame": result.frame, "candidates": len(result.candidates)}
-        )
+        results = stages.select_views(cap, config, list(instances))
+        refs = []
+        for instance in instances:
+            rel = f"{instance_dir(instance)}/view.json"
+            result = results.get(instance)
+            if result is None:
+                result = Missing(InstanceId(instance), "view", "view selection returned nothing for this instance")
+            if isinstance(result, Missing):
+                seg.log("/hierview/view_scores", {"instance": instance, "frame": None, "reason": result.reason})
+                refs.append(_passthrough(run_dir, rel, "view", instance, result))
+                continue
+            write_json_atomic(Path(run_dir) / rel, {"instance": instance, "status": "ok", "view": result.to_json()})
+            seg.log(
+                "/hierview/view_scores",
+                {
+                    "instance": instance,
+                    "frame": result.frame,
+                    "method": result.method,
+                    "reason": result.reason,
+                    "semantic_backend": result.semantic_backend,
+                    "candidates": list(result.candidates),
+                },
+            )
+            numbers = {"frame": result.frame, "candidates": len(result.candidates)}
+            refs.append(make_ref(run_dir, rel, "view", instance, numbers=numbers))
+        return refs
 
 
 @stage_task("asset", tags=("gpu",))

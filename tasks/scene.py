@@ -18,7 +18,7 @@ from rescene_core.io import read_json, write_json_atomic
 from rescene_core.records import InstanceId, Layout, Missing, Pose, RoomShell, SceneGraph
 from rescene_core.runlog import SceneObject, now_ns, scene_update
 from tasks import stages
-from tasks.common import executing, make_ref, stage_task
+from tasks.common import TransientStageError, executing, make_ref, stage_task
 from tasks.instance import load_asset_ref
 
 
@@ -61,6 +61,12 @@ def predict_relations(
         cap = open_capture(capture["path"], validate=False)
         predictor = stages.make_predictor(config)
         prediction = stages.predict_frame(cap, int(frame), load_shell(run_dir, shell), config, predictor)
+        transport = [
+            a.transport_error for a in getattr(prediction, "attempts", ()) if getattr(a, "transport_error", None)
+        ]
+        if getattr(prediction, "status", "ok") == "failed" and transport:
+            # the endpoint timed out or was unreachable after its own retries: retry the task with backoff
+            raise TransientStageError(f"key frame {frame}: relation endpoint failed: {transport[-1]}")
         data = prediction.to_json()
         write_json_atomic(Path(run_dir) / rel, data)
         seg.log("/scenegraph/frame_predictions", {"frame": int(frame), "prediction": data})

@@ -72,6 +72,7 @@ TOPICS: dict[str, tuple[str, dict[str, Any]]] = {
                 "seconds": {"type": "number"},
                 "status": {"type": "string"},
                 "error": {"type": ["string", "null"]},
+                "pid": {"type": "integer", "description": "process that executed the task"},
             },
             ["stage", "event"],
         ),

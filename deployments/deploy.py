@@ -1,0 +1,66 @@
+"""Register the deployments of ``deployments/prefect.yaml`` with the Prefect API (``make deploy``).
+
+prefect.yaml is the source of truth. ``prefect deploy --all --prefect-file deployments/prefect.yaml``
+reads it too, but Prefect 3.8.8's CLI ends with an HTTP 422 after creating the first deployment (its
+check for online workers sends ``limit: null``, which the server rejects under the pinned fastapi);
+this script registers every deployment through ``RunnerDeployment.apply`` instead, which skips that
+check. Run it from the repository root: workers then run the flows from this directory.
+
+    python deployments/deploy.py [--prefect-file deployments/prefect.yaml] [--name scene ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+def load_deployments(prefect_file: Path) -> list[dict[str, Any]]:
+    """The ``deployments`` list of a prefect.yaml (YAML anchors resolved)."""
+    doc = yaml.safe_load(prefect_file.read_text()) or {}
+    deployments = doc.get("deployments") or []
+    if not deployments:
+        raise ValueError(f"{prefect_file}: no deployments")
+    return deployments
+
+
+def register(spec: dict[str, Any]):
+    """Create or update one deployment from its prefect.yaml entry; returns its id."""
+    from prefect.deployments.runner import RunnerDeployment
+
+    pool = spec.get("work_pool") or {}
+    crons = [s["cron"] for s in spec.get("schedules") or [] if s.get("active", True) and "cron" in s]
+    deployment = RunnerDeployment.from_entrypoint(
+        spec["entrypoint"],
+        name=spec["name"],
+        cron=crons or None,
+        parameters=spec.get("parameters") or {},
+        description=spec.get("description"),
+        tags=spec.get("tags") or [],
+        work_pool_name=pool.get("name"),
+        work_queue_name=pool.get("work_queue_name"),
+    )
+    return deployment.apply(work_pool_name=pool.get("name"))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--prefect-file", type=Path, default=Path(__file__).with_name("prefect.yaml"))
+    parser.add_argument("--name", action="append", help="only these deployments (default: all)")
+    args = parser.parse_args(argv)
+    for spec in load_deployments(args.prefect_file):
+        if args.name and spec["name"] not in args.name:
+            continue
+        deployment_id = register(spec)
+        print(
+            f"deployment {spec['entrypoint']} as '{spec['name']}' on pool {spec['work_pool']['name']}: {deployment_id}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,128 @@
+"""Deployments on a real local Prefect server: pool, `prefect deploy`, a process worker, and
+`prefect deployment run rescene/scene` on a tiny synthetic capture; then the split flow skips it."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PREFECT = str(Path(sys.executable).parent / "prefect")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _cli(args: list[str], env: dict[str, str], timeout: float = 300) -> subprocess.CompletedProcess:
+    out = subprocess.run([PREFECT, *args], env=env, cwd=REPO, capture_output=True, text=True, timeout=timeout)
+    assert out.returncode == 0, f"prefect {' '.join(args)} failed:\n{out.stdout}\n{out.stderr}"
+    return out
+
+
+def _wait_healthy(url: str, server: subprocess.Popen, timeout: float = 180) -> None:
+    import httpx
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        assert server.poll() is None, "prefect server exited"
+        try:
+            if httpx.get(f"{url}/health", timeout=2).status_code == 200:
+                return
+        except httpx.HTTPError:
+            pass
+        time.sleep(1)
+    raise AssertionError(f"prefect server at {url} did not become healthy in {timeout} s")
+
+
+def test_read_split_and_scene_done(tmp_path):
+    from flows.split import read_split, scene_done
+
+    split = tmp_path / "split.txt"
+    split.write_text("# nightly\n\na.zarr\n/abs/b.zarr\n")
+    assert read_split(split) == [(tmp_path / "a.zarr").resolve(), Path("/abs/b.zarr")]
+    run = tmp_path / "runs" / "a"
+    assert not scene_done(run, tmp_path / "a.zarr")
+    run.mkdir(parents=True)
+    manifest = {"state": "Completed", "capture": {"path": str((tmp_path / "a.zarr").resolve())}}
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    assert scene_done(run, tmp_path / "a.zarr")
+    (run / "manifest.json").write_text(json.dumps({**manifest, "state": "Failed"}))
+    assert not scene_done(run, tmp_path / "a.zarr")
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_deployment_run_on_local_server(tmp_path):
+    from rescene_core.capture.synth import write_synth
+
+    port = _free_port()
+    api = f"http://127.0.0.1:{port}/api"
+    env = {
+        **os.environ,
+        "PREFECT_HOME": str(tmp_path / "prefect-home"),
+        "PREFECT_API_DATABASE_CONNECTION_URL": f"sqlite+aiosqlite:///{tmp_path / 'prefect.db'}",
+        "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
+        "PREFECT_UI_ENABLED": "false",
+        "OMP_NUM_THREADS": "1",
+    }
+    env.pop("PREFECT_API_URL", None)
+    server = subprocess.Popen(
+        [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
+        env=env, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    worker = None
+    try:
+        _wait_healthy(api, server)
+        env["PREFECT_API_URL"] = api
+        _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env)
+        deploy = subprocess.run(
+            [sys.executable, "deployments/deploy.py", "--prefect-file", "deployments/prefect.yaml"],
+            env=env, cwd=REPO, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert deploy.returncode == 0, deploy.stderr
+        worker = subprocess.Popen(
+            [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
+            env=env, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        capture = write_synth(tmp_path / "tiny.zarr", "tiny", seed=0)
+        run_dir = tmp_path / "runs" / "tiny"
+        params = json.dumps({"capture": str(capture), "run_dir": str(run_dir)})
+        _cli(["deployment", "run", "rescene/scene", "--params", params, "--watch", "--watch-timeout", "600"], env, 700)
+        manifest = json.loads((run_dir / "manifest.json").read_text())
+        assert manifest["state"] == "Completed", manifest["message"]
+        assert manifest["flow_run_id"] != "local"
+        for rel in ("scene/scene.glb", "scene/scene.json", "logs/run.mcap", "eval/metrics.json"):
+            assert (run_dir / rel).exists(), rel
+        assert len(manifest["instances"]) >= 1
+
+        # the split flow finds the scene done, skips it, and writes its Parquet summary
+        split = tmp_path / "split.txt"
+        split.write_text(f"{capture}\n")
+        params = json.dumps({"split_file": str(split), "out_root": str(tmp_path / "runs")})
+        _cli(
+            ["deployment", "run", "rescene-split/split", "--params", params, "--watch", "--watch-timeout", "300"],
+            env,
+            400,
+        )
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(tmp_path / "runs" / "split_summary.parquet").to_pylist()
+        assert [(r["scene"], r["skipped"], r["state"]) for r in table] == [("tiny", True, "Completed")]
+    finally:
+        for proc in (worker, server):
+            if proc is not None:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
