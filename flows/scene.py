@@ -43,6 +43,7 @@ from rescene_core.runlog import Segment, merge_segments
 from tasks import instance as instance_tasks
 from tasks import scene as scene_tasks
 from tasks.common import RESULTS_DIR, ref_missing, retry_delays
+from tasks.scene import validate_capture
 from tasks.stages import STAGE_MODULES, code_version
 
 ProgressListener = Callable[[int, int, dict[str, Any]], None]
@@ -131,8 +132,11 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
     flow_log = Segment(run, "flow")
     flow_log.log("/flow/events", {"event": "start", "flow_run_id": flow_run_id, "details": {"capture": capture}})
 
-    cap = open_capture(capture)  # validates: a bad capture fails here with every problem listed
     capture_ref = {"kind": "capture", "path": str(Path(capture).resolve()), "sha256": hash_tree(capture)}
+    # validation is cached on the capture's content hash: a bad capture fails here with every problem
+    # listed; an unchanged one is not re-read
+    validate_capture.with_options(result_storage=run / RESULTS_DIR)(capture_ref)
+    cap = open_capture(capture, validate=False)
     ids = [int(i.id) for i in cap.object_instances]
     labels = {int(i.id): i.label for i in cap.object_instances}
     logger.info("capture %s: %d object instances, %d frames", cap.scene_id, len(ids), cap.num_frames)

@@ -22,6 +22,13 @@ from tasks.common import TransientStageError, executing, make_ref, stage_task
 from tasks.instance import load_asset_ref
 
 
+@stage_task("validate", retries=0)
+def validate_capture(capture: dict[str, Any]) -> dict[str, Any]:
+    """Validate the capture (raises CaptureError listing every problem); cached on its content hash."""
+    cap = open_capture(capture["path"], validate=True)
+    return {**capture, "numbers": {"frames": cap.num_frames, "instances": len(cap.instances)}}
+
+
 def load_shell(run_dir: str, ref: dict[str, Any]) -> RoomShell:
     return RoomShell.from_json(read_json(Path(run_dir) / ref["path"]))
 

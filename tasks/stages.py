@@ -22,6 +22,7 @@ from rescene_core.records import InstanceId
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 STAGE_MODULES: dict[str, tuple[str, ...]] = {
+    "validate": ("rescene_core.capture",),
     "shell": ("rescene_core.shell",),
     "view": ("rescene_core.hierview",),
     "keyframes": ("rescene_core.hierview",),

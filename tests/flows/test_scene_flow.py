@@ -154,3 +154,17 @@ def test_flow_run_retry_reruns_only_failed_instances(prefect_server, fake_stages
     manifest = json.loads((run / "manifest.json").read_text())
     assert manifest["failed_instances"] == [] and manifest["stages"]["registration"] == {"cached": 2, "completed": 1}
     assert [o["instance"] for o in json.loads((run / "scene/scene.json").read_text())["objects"]] == [2, 3, 4]
+
+
+def test_bad_capture_fails_with_every_problem(prefect_server, fake_stages, tmp_path):
+    import zarr
+
+    from tests.flows.fakes import box_capture
+
+    capture = box_capture(tmp_path / "bad.zarr")
+    root = zarr.open_group(str(capture), mode="r+")
+    root.attrs["format"] = "something-else"
+    state = _run(capture, tmp_path / "run")
+    assert state.is_failed()
+    assert "problem(s) in the capture" in state.message and "format" in state.message
+    assert sum(fake_stages.values()) == 0
