@@ -198,6 +198,11 @@ class RegistrationConfig(_Section):
     """ICP stops when a step moves the pose by less than this fraction of the target extent."""
     degenerate_ratio: float = 1e-3
     """A cloud whose 2nd or 3rd principal spread is below this fraction of the 1st is planar/collinear."""
+    cluster_eps_spacings: float = 5.0
+    """Target cleaning: DBSCAN radius in median nearest-neighbour spacings; the largest cluster is kept
+    (mask bleed puts stray points across the room, which would inflate the extent and so the scale)."""
+    cluster_min_points: int = 5
+    """Target cleaning: DBSCAN core-point neighbourhood size."""
     min_result_inlier_ratio: float = 0.5
     """A final pose with fewer target inliers than this becomes Missing instead of a wild pose."""
 

@@ -109,6 +109,33 @@ def _sample_source(asset: Asset, config: RegistrationConfig) -> NDArray[np.float
     return np.asarray(points, dtype=np.float64)
 
 
+def largest_cluster(points: NDArray[np.float64], config: RegistrationConfig) -> NDArray[np.float64]:
+    """The target's largest DBSCAN cluster (radius ``cluster_eps_spacings`` median NN spacings), or all
+    points when that cluster has fewer than ``min_correspondences`` points. points: [n, 3] world metres."""
+    import open3d as o3d
+    from scipy.spatial import cKDTree
+
+    if len(points) < max(config.min_correspondences, 3):
+        return points
+    dist, _ = cKDTree(points).query(points, k=2, workers=1)
+    spacing = float(np.median(dist[:, 1]))
+    if not spacing > 0:
+        return points
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    labels = np.asarray(
+        cloud.cluster_dbscan(eps=config.cluster_eps_spacings * spacing, min_points=config.cluster_min_points)
+    )
+    if not np.any(labels >= 0):
+        return points
+    keep = labels == int(np.bincount(labels[labels >= 0]).argmax())
+    return points[keep] if int(keep.sum()) >= config.min_correspondences else points
+
+
+def prepare_target(points: NDArray[np.float64], config: RegistrationConfig) -> NDArray[np.float64]:
+    """Subsample to ``max_target_points`` (seeded), then keep the largest cluster."""
+    return largest_cluster(_subsample(points, config.max_target_points, config.seed), config)
+
+
 def _subsample(points: NDArray[np.float64], count: int, seed: int) -> NDArray[np.float64]:
     if len(points) <= count:
         return points
@@ -219,7 +246,10 @@ def register_detailed(
         diag["rejected"] = str(err)
         return Missing(instance, STAGE, f"rejected input: {err}"), diag
 
-    tgt = _subsample(points, config.max_target_points, config.seed)
+    tgt = prepare_target(points, config)
+    if len(tgt) < config.min_correspondences:
+        diag["rejected"] = f"{len(tgt)} target points after cleaning"
+        return Missing(instance, STAGE, f"rejected input: {len(tgt)} target points after cleaning"), diag
     src_norm, tgt_norm = Normalisation.of(source), Normalisation.of(tgt)
     extent = tgt_norm.extent
     evaluator = FitEvaluator(source, tgt, config.max_distance_ratio * extent)
@@ -228,6 +258,7 @@ def register_detailed(
         {
             "target_points": len(points),
             "target_points_used": len(tgt),
+            "target_points_dropped_as_stray": int(min(len(points), config.max_target_points) - len(tgt)),
             "source_samples": len(source),
             "source_normalisation": src_norm.to_json(),
             "target_normalisation": tgt_norm.to_json(),
