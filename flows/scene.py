@@ -51,7 +51,9 @@ PROGRESS_LISTENERS: list[ProgressListener] = []
 """Called in the flow's process as each instance finishes: (done, total, instance row). The demo's
 progress bar registers here."""
 
-INSTANCE_STAGES = ("view", "asset", "registration")
+PROGRESS_INTERVAL_S = 1.0
+"""The progress artifact is updated as instances finish, at most once per this many seconds (and at
+the end), so a burst of cached instances costs one API call, not one per instance."""
 
 
 def _bind(task_, results: Path):
@@ -180,6 +182,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
             m.instance: {"ref": None, "asset": None, "row": _row(m.instance, labels[m.instance], None, m)}
             for m in failures
         }
+        last_update = time.monotonic()
         for done, fut in enumerate(as_completed(list(poses)), start=1):
             k = index[fut]
             i = ids[k]
@@ -195,7 +198,10 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
             by_instance[i] = {"ref": ref, "asset": assets[k] if not failed else None, "row": row}
             for stage, f in per_stage:
                 stage_rows.append(_state_row(stage, i, f))
-            update_progress_artifact(progress_id, 100.0 * done / max(len(ids), 1))
+            now = time.monotonic()
+            if done == len(view_refs) or now - last_update >= PROGRESS_INTERVAL_S:
+                update_progress_artifact(progress_id, 100.0 * done / max(len(ids), 1))
+                last_update = now
             for listener in PROGRESS_LISTENERS:
                 listener(done, len(ids), row)
         if not view_refs:

@@ -21,7 +21,7 @@ def test_flow_on_two_worker_dask_cluster(prefect_server, tmp_path):
     run = tmp_path / "run"
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         state = run_flow(capture, run, runner="dask", address=cluster.scheduler_address)
-        workers = cluster.scheduler_info["workers"]
+        workers = dict(cluster.workers)
     assert state.is_completed(), state.message
     assert len(workers) == 2
     manifest = json.loads((run / "manifest.json").read_text())
