@@ -47,6 +47,20 @@ def upper_surface(height: NDArray) -> float:
     return -lower_surface(-np.asarray(height)) if len(height) else float("-inf")
 
 
+def upward_mask(points: NDArray, shell: RoomShell, neighbours: int, max_angle_deg: float) -> NDArray[np.bool_]:
+    """bool [n]: points whose normal (Open3D, k nearest neighbours) is within ``max_angle_deg`` of the floor
+    normal, i.e. points on upward- (or downward-) facing surfaces."""
+    import open3d as o3d
+
+    pts = np.asarray(points, dtype=np.float64)
+    if len(pts) < 3:
+        return np.zeros(len(pts), bool)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=min(neighbours, len(pts))))
+    up = np.asarray(shell.floor.normal, dtype=np.float64)
+    return np.abs(np.asarray(cloud.normals) @ up) >= np.cos(np.deg2rad(max_angle_deg))
+
+
 def heights(shell: RoomShell, points: NDArray) -> NDArray[np.float64]:
     """Height of each point above the floor plane (m), [n]."""
     return shell.floor.signed_distance(points)

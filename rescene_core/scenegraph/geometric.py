@@ -4,16 +4,13 @@ For each visible instance it looks only at the points this frame sees (its maske
 or its point cloud restricted to the pixels of its mask here) and at the other instances visible here:
 
 1. its lowest visible points touch the floor plane -> rests-on floor;
-2. a visible instance that starts lower has surface points at the child's bottom height, under the
-   child's footprint -> rests-on that instance (largest footprint overlap);
+2. a visible instance that starts lower has upward-facing surface points at the child's bottom height,
+   under the child's footprint -> rests-on that instance (largest footprint overlap);
 3. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
    on a wall (spanning at most ``wall_max_depth`` off the wall) -> rests-on floor (its base is out of
    view, not absent);
 4. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
 5. otherwise the highest visible instance beneath it, else the nearer of floor and wall.
-
-A supporting instance must not rise above the child's bottom right next to it (a bed beside a
-nightstand is not under it); so an object on a middle shelf of a shelving unit is not found here.
 
 Occlusion and partial views make frames disagree, as a VLM's answers do; fusion reconciles them.
 It answers in the prompt's JSON format and does no A/B re-ranking.
@@ -27,7 +24,14 @@ from scipy.spatial import cKDTree
 from rescene_core.config import SceneGraphConfig
 from rescene_core.records import Relation, Root
 from rescene_core.scenegraph.backend import Query
-from rescene_core.scenegraph.geom import floor_only_shell, heights, lower_surface, nearest_wall, upper_surface
+from rescene_core.scenegraph.geom import (
+    floor_only_shell,
+    heights,
+    lower_surface,
+    nearest_wall,
+    upper_surface,
+    upward_mask,
+)
 from rescene_core.scenegraph.prompt import answer_json
 from rescene_core.scenegraph.view import visible_points
 
@@ -80,16 +84,17 @@ class GeometricPredictor:
         pts = {v.display: visible_points(capture, view, int(v.instance)) for v in view.visible}
         h = {d: heights(shell, p) for d, p in pts.items()}
         bottom = {d: lower_surface(h[d]) for d in pts}
+        up = {d: upward_mask(p, shell, cfg.normal_neighbours, cfg.upward_normal_deg) for d, p in pts.items()}
         occluded = {v.display: bottom_occluded(view, int(v.instance)) for v in view.visible}
         entries = []
         for v in view.visible:
             d = v.display
-            relation, parent = self._decide(d, pts, h, bottom, occluded, shell, cfg)
+            relation, parent = self._decide(d, pts, h, up, bottom, occluded, shell, cfg)
             entries.append({"id": d, "category": v.label, "relation": relation, "parent": parent})
         return answer_json(entries)
 
     @staticmethod
-    def _decide(d, pts, h, bottom, occluded, shell, cfg) -> tuple[str, int | str]:
+    def _decide(d, pts, h, up, bottom, occluded, shell, cfg) -> tuple[str, int | str]:
         p, b = pts[d], bottom[d]
         if len(p) < cfg.min_points:
             return Relation.RESTS_ON.value, Root.FLOOR.value
@@ -102,10 +107,10 @@ class GeometricPredictor:
             if q == d or len(pq) < cfg.min_points or not bottom[q] < b - cfg.support_tol:
                 continue
             hq = h[q]
-            near_q = np.isfinite(cKDTree(xy).query(pq[:, :2], distance_upper_bound=cfg.support_radius)[0])
-            if not near_q.any() or upper_surface(hq[near_q]) > b + cfg.support_tol:
-                continue  # q rises above the child's bottom right next to it: beside it, not beneath
-            surface = pq[np.abs(hq - b) <= cfg.support_tol][:, :2]
+            # an upward-facing surface of q at the child's bottom height (a bed's side beside a nightstand,
+            # or the neighbouring book's side, is at that height too, but faces sideways)
+            band = (np.abs(hq - b) <= cfg.support_tol) & up[q]
+            surface = pq[band][:, :2]
             under = pq[hq < b + cfg.support_tol][:, :2]
             if len(under):
                 near = cKDTree(under).query(xy, distance_upper_bound=cfg.support_radius)[0]
@@ -115,7 +120,7 @@ class GeometricPredictor:
                 continue
             dist = cKDTree(surface).query(xy, distance_upper_bound=cfg.support_radius)[0]
             overlap = float(np.isfinite(dist).mean())
-            key = (overlap, -abs(float(np.median(hq[np.abs(hq - b) <= cfg.support_tol])) - b))
+            key = (overlap, -abs(float(np.median(hq[band])) - b))
             if overlap >= cfg.min_support_overlap and (best_key is None or key > best_key):
                 best, best_key = q, key
         if best is not None:

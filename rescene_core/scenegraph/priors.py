@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import open3d as o3d
 import shapely
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -30,7 +29,7 @@ from shapely.geometry import MultiPoint
 from rescene_core.capture import Capture
 from rescene_core.config import SceneGraphConfig
 from rescene_core.records import InstanceId, Parent, RoomShell, Root
-from rescene_core.scenegraph.geom import heights, lower_surface, upper_surface, wall_fit
+from rescene_core.scenegraph.geom import heights, lower_surface, upper_surface, upward_mask, wall_fit
 
 CONTACT_BAND_RATIO = 0.2
 """The contact footprint is the child's points within max(support_tol, this x its height) of its bottom."""
@@ -85,11 +84,7 @@ def instance_geometry(
             iid, pts.reshape(-1, 3), np.zeros(len(pts)), np.zeros(len(pts), bool), np.inf, -np.inf, 0.0, None
         )
     h = heights(shell, pts)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=min(config.normal_neighbours, len(pts))))
-    normals = np.asarray(cloud.normals)
-    up = np.asarray(shell.floor.normal, dtype=np.float64)
-    upward = np.abs(normals @ up) >= np.cos(np.deg2rad(config.upward_normal_deg))
+    upward = upward_mask(pts, shell, config.normal_neighbours, config.upward_normal_deg)
     polygon = shell.polygon().buffer(POLYGON_TOLERANCE) if len(shell.floor_polygon) >= 3 else None
     inside = float(shapely.contains_xy(polygon, pts[:, 0], pts[:, 1]).mean()) if polygon is not None else 1.0
     return InstanceGeometry(
