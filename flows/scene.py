@@ -266,6 +266,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
             instance_failures, state_name, message,
         )  # fmt: skip
         write_json_atomic(run / "manifest.json", manifest)
+        _write_table(run / "instances.parquet", rows)
         _artifacts(manifest, rows)
 
     summary = {
@@ -322,6 +323,25 @@ def _manifest(
         "missing": [m.to_json() for m in missing],
         "failed_instances": failed,
     }
+
+
+def _write_table(path: Path, rows: list[dict[str, Any]]) -> None:
+    """The instance table as Parquet (all columns as strings but the instance id), written atomically."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    columns = ["instance", "label", "view", "asset", "registration", "missing_stage", "missing_reason"]
+    table = pa.table(
+        {
+            c: pa.array(
+                [r[c] if c == "instance" else str(r[c]) for r in rows], pa.int64() if c == "instance" else pa.string()
+            )
+            for c in columns
+        }
+    )
+    tmp = path.with_name(f".{path.name}.tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)
 
 
 def _artifacts(manifest: dict[str, Any], rows: list[dict[str, Any]]) -> None:

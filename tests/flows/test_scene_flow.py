@@ -33,6 +33,10 @@ def test_flow_writes_run_directory_and_caches(prefect_server, fake_stages, box_c
                      "fusion": 1, "attachment": 1}  # fmt: skip
     manifest = json.loads((run / "manifest.json").read_text())
     assert manifest["state"] == "Completed" and manifest["missing"] == []
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(run / "instances.parquet").to_pylist()
+    assert [(r["instance"], r["registration"]) for r in table] == [(2, "ok"), (3, "ok"), (4, "ok")]
     assert manifest["stages"]["registration"] == {"completed": 3}
 
     # a second identical run executes no stage
