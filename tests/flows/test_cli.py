@@ -1,0 +1,35 @@
+"""`rescene run`, `rescene log` and `rescene eval` end to end (stage doubles, embedded test server)."""
+
+from __future__ import annotations
+
+import json
+
+from flows.cli import main
+
+
+def test_run_log_eval_commands(prefect_server, fake_stages, box_capture_path, tmp_path, capsys):
+    run = tmp_path / "run"
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text("registration:\n  scale_max: 1.05\n")
+    code = main(
+        ["run", str(box_capture_path), "--out", str(run), "--config", str(cfg), "--set", "attachment.contact_gap=0.02"]
+    )
+    assert code == 0
+    assert "Completed" in capsys.readouterr().out
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["config"]["registration"]["scale_max"] == 1.05
+    assert manifest["config"]["attachment"]["contact_gap"] == 0.02
+
+    assert main(["log", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "final state Completed" in out and "/registration/gates" in out
+
+    assert main(["eval", str(run), "--json", str(tmp_path / "m.json")]) == 0
+    metrics = json.loads((tmp_path / "m.json").read_text())
+    assert metrics["objects"] == 3 and "structural" in metrics and "ground_truth" not in metrics
+    assert (run / "eval" / "report.md").exists()
+
+
+def test_run_rejects_unknown_setting(box_capture_path, tmp_path, capsys):
+    assert main(["run", str(box_capture_path), "--out", str(tmp_path / "r"), "--set", "registration.nope=1"]) == 2
+    assert "unknown setting" in capsys.readouterr().err
