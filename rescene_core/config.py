@@ -112,6 +112,10 @@ class KeyFrameConfig(_Section):
     """A frame is eligible at this mask-match ratio or more."""
     min_visible_instances: int = 5
     """A frame is eligible with at least this many visible instances."""
+    occlusion_aware: bool = True
+    """Leave voxels occluded by other surfaces (capture depth) out of the mask-match ratio (not in the paper)."""
+    occlusion_margin: float = 0.05
+    """A voxel centre this far (m) behind the observed depth at its pixel counts as occluded."""
     include_structural: bool = False
     """Also voxelise floor/wall/ceiling points (the relation graph is over objects, so off by default)."""
     seed: int = 0

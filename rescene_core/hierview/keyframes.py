@@ -117,9 +117,18 @@ def coverage_units(
 
 
 def coverage_matrix(
-    capture: Capture, centres: NDArray[np.float32], owner: NDArray[np.int32], table: LabelTable
+    capture: Capture,
+    centres: NDArray[np.float32],
+    owner: NDArray[np.int32],
+    table: LabelTable,
+    occlusion_margin: float | None = None,
 ) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64]]:
-    """covered [T, u], mask-match ratio [T] and visible-instance count [T] (each mask frame read once)."""
+    """covered [T, u], mask-match ratio [T] and visible-instance count [T] (each mask frame read once).
+
+    With ``occlusion_margin`` (m) and capture depth, a unit whose centre lies more than the margin behind the
+    observed depth at its pixel is occluded by something else: it is left out of the mask-match denominator
+    instead of counting as a mismatch (it cannot be in its own mask in that frame).
+    """
     t_count = capture.num_frames
     width, height = capture.image_size
     covered = np.zeros((t_count, len(centres)), bool)
@@ -135,17 +144,29 @@ def coverage_matrix(
             continue
         labels = table.compact(capture.instance_masks[t])
         hit = valid & (labels[row, col] == owner)
+        seen = valid
+        if occlusion_margin is not None and capture.depth is not None:
+            observed = np.nan_to_num(np.asarray(capture.depth[t])[row, col], nan=0.0)
+            z = _camera_depth(centres, capture.world_from_cam[t])
+            seen = valid & ~((observed > 0) & (z > observed + occlusion_margin))
         covered[t] = hit
-        match[t] = hit.sum() / valid.sum()
+        match[t] = hit.sum() / seen.sum() if seen.any() else 0.0
         visible[t] = len(np.unique(owner[hit]))
     return covered, match, visible
+
+
+def _camera_depth(points_world: NDArray[np.float32], world_from_cam: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Depth along camera z (m) of world points [n, 3]."""
+    rot, centre = world_from_cam[:3, :3], world_from_cam[:3, 3]
+    return (np.asarray(points_world, np.float64) - centre) @ rot[:, 2]
 
 
 def select_keyframes(capture: Capture, config: KeyFrameConfig | None = None) -> KeyFrames:
     """Greedy marginal-coverage key frames (see the module docstring)."""
     config = config or KeyFrameConfig()
     centres, owner, voxel, table = coverage_units(capture, config)
-    covered, match, visible = coverage_matrix(capture, centres, owner, table)
+    margin = config.occlusion_margin if config.occlusion_aware else None
+    covered, match, visible = coverage_matrix(capture, centres, owner, table, margin)
     any_cover = covered.any(axis=1)
     eligible = np.flatnonzero((match >= config.min_mask_match) & (visible >= config.min_visible_instances) & any_cover)
     fallback = len(eligible) < config.budget
