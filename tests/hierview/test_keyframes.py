@@ -85,3 +85,13 @@ def test_bad_input(room, tmp_path):
     )
     kf = select_keyframes(cap, KeyFrameConfig())
     assert kf.frames == () and kf.fallback and "no frame" in kf.reason
+
+
+def test_occluded_voxels_do_not_count_as_mask_mismatches(room_capture):
+    centres, owner, _, table = coverage_units(room_capture, KeyFrameConfig())
+    covered_plain, match_plain, _ = coverage_matrix(room_capture, centres, owner, table)
+    covered_occ, match_occ, _ = coverage_matrix(room_capture, centres, owner, table, occlusion_margin=0.05)
+    # Coverage itself is unchanged; only the denominator of the ratio loses the hidden units.
+    np.testing.assert_array_equal(covered_plain, covered_occ)
+    assert (match_occ >= match_plain - 1e-12).all()
+    assert (match_occ > match_plain + 1e-6).any()
