@@ -172,3 +172,35 @@ def test_bad_capture_fails_with_every_problem(prefect_server, fake_stages, tmp_p
     assert state.is_failed()
     assert "problem(s) in the capture" in state.message and "format" in state.message
     assert sum(fake_stages.values()) == 0
+
+
+def test_artifacts_report_table_progress(prefect_server, fake_stages, box_capture_path, tmp_path):
+    import httpx
+    from prefect.settings import PREFECT_API_URL
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / FAULTS_FILE).write_text(json.dumps([{"stage": "registration", "item": 4, "kind": "bad_input", "times": 1}]))
+    state = _run(box_capture_path, run)
+    flow_run_id = str(state.state_details.flow_run_id)
+
+    # the REST API directly: Prefect 3.8.8's client sends null limit/sort, which the server rejects
+    body = {
+        "artifacts": {"flow_run_id": {"any_": [flow_run_id]}},
+        "limit": 50,
+        "offset": 0,
+        "sort": "CREATED_DESC",
+    }
+    found = httpx.post(f"{PREFECT_API_URL.value()}/artifacts/filter", json=body, timeout=30).raise_for_status().json()
+    by_type = {a["type"]: a for a in found}
+    assert set(by_type) == {"markdown", "table", "progress"}
+    assert by_type["progress"]["data"] == 100.0
+    report = by_type["markdown"]["data"]
+    assert "**Failed**" in report and "4 (registration)" in report
+    table = by_type["table"]["data"]
+    rows = json.loads(table) if isinstance(table, str) else table
+    assert [(r["instance"], r["registration"], r["missing_stage"]) for r in rows] == [
+        (2, "ok", ""),
+        (3, "ok", ""),
+        (4, "missing", "registration"),
+    ]
