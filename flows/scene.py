@@ -34,7 +34,7 @@ from prefect.context import FlowRunContext
 from prefect.futures import PrefectFuture, as_completed, wait
 from prefect.states import Completed, Failed, State
 
-from rescene_core.capture import open_capture
+from rescene_core.capture import CaptureError, open_capture
 from rescene_core.config import RunConfig, load_config
 from rescene_core.export import ExportConfig
 from rescene_core.io import hash_tree, write_bytes_atomic, write_json_atomic
@@ -400,6 +400,9 @@ def run_command(args: argparse.Namespace) -> int:
     state = run_flow(args.capture, args.out, config, getattr(args, "runner", "thread"), getattr(args, "address", None))
     seconds = time.perf_counter() - start
     summary = state.result(raise_on_failure=False) if state.is_completed() or state.is_failed() else None
+    if isinstance(summary, CaptureError):  # bad input: the problems, and exit code 2 as for every command
+        print(str(summary), file=sys.stderr)
+        return 2
     print(f"{state.name}: {state.message or ''} ({seconds:.1f} s)")
     if isinstance(summary, dict):
         print(f"run directory: {summary['run_dir']}")

@@ -33,3 +33,14 @@ def test_run_log_eval_commands(prefect_server, fake_stages, box_capture_path, tm
 def test_run_rejects_unknown_setting(box_capture_path, tmp_path, capsys):
     assert main(["run", str(box_capture_path), "--out", str(tmp_path / "r"), "--set", "registration.nope=1"]) == 2
     assert "unknown setting" in capsys.readouterr().err
+
+
+def test_run_bad_capture_exits_2(prefect_server, fake_stages, tmp_path, capsys):
+    import zarr
+
+    from tests.flows.fakes import box_capture
+
+    capture = box_capture(tmp_path / "bad.zarr")
+    zarr.open_group(str(capture), mode="r+").attrs["format"] = "other"
+    assert main(["run", str(capture), "--out", str(tmp_path / "run")]) == 2
+    assert "problem(s) in the capture" in capsys.readouterr().err
