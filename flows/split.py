@@ -17,8 +17,8 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 from prefect import flow, get_run_logger
+from prefect.client.orchestration import get_client
 from prefect.deployments import run_deployment
-from prefect.flow_runs import wait_for_flow_run
 
 from rescene_core.config import RunConfig
 from rescene_core.io import read_json
@@ -78,6 +78,16 @@ def _row(capture: Path, run_dir: Path, state: str, skipped: bool, flow_run_id: s
     }
 
 
+def _wait_final(flow_run_id, poll_interval_s: float):
+    """Poll the API until the flow run reaches a final state; returns that state."""
+    with get_client(sync_client=True) as client:
+        while True:
+            state = client.read_flow_run(flow_run_id).state
+            if state is not None and state.is_final():
+                return state
+            time.sleep(poll_interval_s)
+
+
 @flow(name="rescene-split", description="Run every capture of a split file through rescene/scene.")
 def rescene_split(
     split_file: str,
@@ -107,8 +117,7 @@ def rescene_split(
         pending.append((capture, run_dir, flow_run))
     start = time.perf_counter()
     for capture, run_dir, flow_run in pending:
-        final = wait_for_flow_run(flow_run.id, timeout=None, poll_interval=int(poll_interval_s), log_states=True)
-        state = final.state
+        state = _wait_final(flow_run.id, poll_interval_s)
         rows.append(
             _row(
                 capture,

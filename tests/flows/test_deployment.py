@@ -61,7 +61,7 @@ def test_read_split_and_scene_done(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.timeout(900)
+@pytest.mark.timeout(1500)
 def test_deployment_run_on_local_server(tmp_path):
     from rescene_core.capture.synth import write_synth
 
@@ -105,19 +105,25 @@ def test_deployment_run_on_local_server(tmp_path):
             assert (run_dir / rel).exists(), rel
         assert len(manifest["instances"]) >= 1
 
-        # the split flow finds the scene done, skips it, and writes its Parquet summary
+        # the split flow skips the scene already done, runs the other as a rescene/scene deployment run
+        # (picked up by the worker), and writes its Parquet summary
+        other = write_synth(tmp_path / "tiny1.zarr", "tiny", seed=1)
         split = tmp_path / "split.txt"
-        split.write_text(f"{capture}\n")
+        split.write_text(f"{capture}\n{other.name}\n")
         params = json.dumps({"split_file": str(split), "out_root": str(tmp_path / "runs")})
         _cli(
-            ["deployment", "run", "rescene-split/split", "--params", params, "--watch", "--watch-timeout", "300"],
+            ["deployment", "run", "rescene-split/split", "--params", params, "--watch", "--watch-timeout", "600"],
             env,
-            400,
+            700,
         )
         import pyarrow.parquet as pq
 
         table = pq.read_table(tmp_path / "runs" / "split_summary.parquet").to_pylist()
-        assert [(r["scene"], r["skipped"], r["state"]) for r in table] == [("tiny", True, "Completed")]
+        assert [(r["scene"], r["skipped"], r["state"]) for r in table] == [
+            ("tiny", True, "Completed"),
+            ("tiny1", False, "Completed"),
+        ]
+        assert json.loads((tmp_path / "runs" / "tiny1" / "manifest.json").read_text())["state"] == "Completed"
     finally:
         for proc in (worker, server):
             if proc is not None:
