@@ -87,6 +87,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return demo_command(args)
 
 
+def _cmd_vqa(args: argparse.Namespace) -> int:
+    from rescene_core.vqa import vqa_command
+
+    return vqa_command(args.run, out=args.out, views=args.views, seed=args.seed)
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from rescene_core.bench import SUITES, run_suite
 
@@ -155,6 +161,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("vqa", help="generate embodied VQA data (questions, rendered views) from an assembled run")
+    p.add_argument("run", type=Path, help="run directory written by `rescene run`")
+    p.add_argument("--out", type=Path, help="output directory (default RUN/vqa)")
+    p.add_argument("--views", type=int, help="viewpoints to sample and render (default VqaConfig.views)")
+    p.add_argument("--seed", type=int, help="seed of every random choice (default VqaConfig.seed)")
+    p.set_defaults(func=_cmd_vqa)
     return parser
 
 
