@@ -9,6 +9,7 @@ camera poses). Candidates that would be ambiguous are dropped and counted by rea
 - ``near_equal_distance`` / ``near_equal_height`` / ``near_equal_bearing``: the compared quantities
   differ by less than the configured margin;
 - ``ambiguous_wall``: two walls get the same compass name;
+- ``answer_in_question``: the object's only reference names the support being asked about;
 - ``no_distractors``: the scene has no wrong answer that is surely wrong.
 
 Compass names: world +y is north and +x is east; a wall is named by the direction from the room towards
@@ -46,6 +47,7 @@ class Filter(enum.StrEnum):
     NEAR_EQUAL_HEIGHT = "near_equal_height"
     NEAR_EQUAL_BEARING = "near_equal_bearing"
     AMBIGUOUS_WALL = "ambiguous_wall"
+    ANSWER_IN_QUESTION = "answer_in_question"
     NO_DISTRACTORS = "no_distractors"
 
 
@@ -189,7 +191,7 @@ class _Generator:
         self.filtered: dict[Category, Counter] = {c: Counter() for c in Category}
         self.obj = {o.id: o for o in scene.objects}
         counts = scene.label_counts()
-        self.unique = {o.id for o in scene.objects if counts[o.label] == 1}
+        self.counts = counts
         self.labels = sorted(counts)
         self.edges = scene.edges()
         self.children: dict[int, list[Edge]] = defaultdict(list)
@@ -200,6 +202,52 @@ class _Generator:
         self.walls = {w.id: w for w in scene.shell.walls}
         self.wall_names = {w.id: wall_direction(w) for w in scene.shell.walls}
         self.wall_name_counts = Counter(self.wall_names.values())
+        self.refs = self._references()
+        self.unique = set(self.refs)
+
+    def _references(self) -> dict[int, str]:
+        """A referring phrase (without 'the') for every object that can be named without ambiguity.
+
+        A unique label names its object ('lamp'). A shared label is narrowed by a confident support or
+        mount ('table lamp on the desk') when no other object with that label has the same parent label,
+        else by the nearest uniquely labelled landmark ('chair nearest to the sofa') when the next object
+        with that label is farther from the landmark by ``distance_margin``. Otherwise the object has no
+        reference and questions that would name it are dropped (``ambiguous_reference``).
+        """
+        refs: dict[int, str] = {o.id: o.label for o in self.scene.objects if self.counts[o.label] == 1}
+        landmarks = sorted(refs)
+        by_label: dict[str, list[int]] = defaultdict(list)
+        for o in self.scene.objects:
+            by_label[o.label].append(o.id)
+        for label, ids in sorted(by_label.items()):
+            if len(ids) == 1:
+                continue
+            support = {}
+            for i in ids:
+                e = self.edges.get(i)
+                if e is not None and self.confident(e):
+                    support[i] = self.parent_label(e)
+            support_counts = Counter(support.get(i) for i in ids)
+            for i in sorted(ids):
+                parent = support.get(i)
+                if parent is not None and parent != "wall" and support_counts[parent] == 1:
+                    refs[i] = f"{label} on the {parent}"
+                    continue
+                centre = self.obj[i].center
+                for lm in sorted(landmarks, key=lambda m: (float(np.linalg.norm(self.obj[m].center - centre)), m)):
+                    dist = sorted((float(np.linalg.norm(self.obj[j].center - self.obj[lm].center)), j) for j in ids)
+                    if dist[0][1] == i and self.far_enough(dist[0][0], dist[1][0]):
+                        refs[i] = f"{label} nearest to the {self.obj[lm].label}"
+                        break
+        return refs
+
+    def by_support(self, oid: int) -> bool:
+        """Whether the object's reference names its support ('lamp on the desk')."""
+        return self.refs[oid] != self.obj[oid].label and " on the " in self.refs[oid]
+
+    def ref(self, oid: int) -> str:
+        """The referring phrase of an object (without 'the')."""
+        return self.refs[oid]
 
     # helpers -----------------------------------------------------------------------------------------
     def label(self, oid: int) -> str:
@@ -239,6 +287,9 @@ class _Generator:
             self.drop(cat, Filter.NO_DISTRACTORS)
             return
         assert answer in choices
+        named = {str(i): self.refs[i] for i in object_ids if self.refs.get(i, self.obj[i].label) != self.obj[i].label}
+        if named:
+            provenance = {**provenance, "references": named}
         self.candidates[cat].append(
             _Candidate(
                 cat,
@@ -336,7 +387,7 @@ class _Generator:
                     self.add(
                         cat,
                         "left_right_in_view",
-                        f"In this view, is the {oa.label} to the left or to the right of the {ob.label}?",
+                        f"In this view, is the {self.ref(a)} to the left or to the right of the {self.ref(b)}?",
                         ans,
                         self.shuffle(["left", "right"]),
                         (a, b),
@@ -347,13 +398,13 @@ class _Generator:
                 if not self.far_enough(da, db):
                     self.drop(cat, Filter.NEAR_EQUAL_DISTANCE)
                 else:
-                    ans = oa.label if da < db else ob.label
+                    ans = self.ref(a) if da < db else self.ref(b)
                     self.add(
                         cat,
                         "closer_to_camera",
-                        f"In this view, which is closer to the camera: the {oa.label} or the {ob.label}?",
+                        f"In this view, which is closer to the camera: the {self.ref(a)} or the {self.ref(b)}?",
                         ans,
-                        self.shuffle([oa.label, ob.label]),
+                        self.shuffle([self.ref(a), self.ref(b)]),
                         (a, b),
                         {"view": vp.id, "distance_m": {str(a): round(da, 3), str(b): round(db, 3)}},
                         vp,
@@ -370,13 +421,13 @@ class _Generator:
             if abs(za - zb) < self.config.height_margin:
                 self.drop(cat, Filter.NEAR_EQUAL_HEIGHT)
                 continue
-            ans = oa.label if za > zb else ob.label
+            ans = self.ref(a) if za > zb else self.ref(b)
             self.add(
                 cat,
                 "higher",
-                f"Which is higher up: the {oa.label} or the {ob.label}?",
+                f"Which is higher up: the {self.ref(a)} or the {self.ref(b)}?",
                 ans,
-                self.shuffle([oa.label, ob.label]),
+                self.shuffle([self.ref(a), self.ref(b)]),
                 (a, b),
                 {"center_z_m": {str(a): round(za, 3), str(b): round(zb, 3)}},
             )
@@ -392,13 +443,13 @@ class _Generator:
                 if not self.far_enough(db, dc):
                     self.drop(cat, Filter.NEAR_EQUAL_DISTANCE)
                     continue
-                ans = ob.label if db < dc else oc.label
+                ans = self.ref(b) if db < dc else self.ref(c)
                 self.add(
                     cat,
                     "closer_to_object",
-                    f"Is the {oa.label} closer to the {ob.label} or to the {oc.label}?",
+                    f"Is the {self.ref(a)} closer to the {self.ref(b)} or to the {self.ref(c)}?",
                     ans,
-                    self.shuffle([ob.label, oc.label]),
+                    self.shuffle([self.ref(b), self.ref(c)]),
                     (a, b, c),
                     {"center_distance_m": {f"{a}-{b}": round(db, 3), f"{a}-{c}": round(dc, 3)}},
                 )
@@ -414,12 +465,15 @@ class _Generator:
             if not self.confident(e):
                 self.drop(cat, Filter.LOW_CONFIDENCE)
                 continue
+            if self.by_support(cid):
+                self.drop(cat, Filter.ANSWER_IN_QUESTION)
+                continue
             ans = self.parent_label(e)
             pid = edge_parent_id(e)
             self.add(
                 cat,
                 "rests_on",
-                f"What is the {self.label(cid)} resting on?",
+                f"What is the {self.ref(cid)} resting on?",
                 ans,
                 self.choices(ans, [*self.labels, FLOOR_ANSWER], {self.label(cid)}),
                 (cid,) if pid is None else (cid, pid),
@@ -442,7 +496,7 @@ class _Generator:
             self.add(
                 cat,
                 "what_rests_on",
-                f"Which of these objects rests on the {self.label(pid)}?",
+                f"Which of these objects rests on the {self.ref(pid)}?",
                 ans,
                 self.choices(ans, self.labels, exclude),
                 (pid, int(pick.child)),
@@ -477,18 +531,21 @@ class _Generator:
                 self.add(
                     cat,
                     "which_wall",
-                    f"On which wall is the {label} mounted?",
+                    f"On which wall is the {self.ref(cid)} mounted?",
                     ans,
                     self.choices(ans, opts) if opts else None,
                     (cid,),
                     {"edges": [_edge_json(e)], "wall_id": wid, "wall_normal": list(self.walls[wid].plane.normal)},
                 )
             elif (pid := edge_parent_id(e)) is not None:
+                if self.by_support(cid):
+                    self.drop(cat, Filter.ANSWER_IN_QUESTION)
+                    continue
                 ans = self.label(pid)
                 self.add(
                     cat,
                     "mounted_on_object",
-                    f"What is the {label} mounted on?",
+                    f"What is the {self.ref(cid)} mounted on?",
                     ans,
                     self.choices(ans, [*self.labels, "wall"], {label}),
                     (cid, pid),
@@ -555,7 +612,7 @@ class _Generator:
                     self.add(
                         cat,
                         "same_support",
-                        f"Which of these objects rests on the same object as the {label}?",
+                        f"Which of these objects rests on the same object as the {self.ref(cid)}?",
                         ans,
                         self.choices(ans, self.labels, exclude),
                         (cid, pid, int(pick.child)),
@@ -571,7 +628,7 @@ class _Generator:
                     self.add(
                         cat,
                         "support_of_support",
-                        f"What is the object under the {label} resting on?",
+                        f"What is the object under the {self.ref(cid)} resting on?",
                         ans,
                         self.choices(ans, [*self.labels, FLOOR_ANSWER], {label, self.label(pid)}),
                         tuple(i for i in (cid, pid, gp) if i is not None),
@@ -603,7 +660,7 @@ class _Generator:
             self.add(
                 cat,
                 "rests_on_nearest",
-                f"Which of these objects rests on the object nearest to the {self.label(a)}?",
+                f"Which of these objects rests on the object nearest to the {self.ref(a)}?",
                 ans,
                 self.choices(ans, self.labels, exclude),
                 (a, near, int(pick.child)),
@@ -651,7 +708,7 @@ class _Generator:
                         cat,
                         "rests_on_neighbour_in_view",
                         f"In this view, which of these objects rests on the piece of furniture immediately to "
-                        f"the {side} of the {self.label(b)}?",
+                        f"the {side} of the {self.ref(b)}?",
                         ans,
                         self.choices(ans, self.labels, exclude),
                         (b, n, int(pick.child)),

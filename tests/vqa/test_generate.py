@@ -136,12 +136,30 @@ def test_duplicate_labels_are_never_referenced():
     second_chair = VqaObject.box(6, "chair", (4.0, 2.5, 0.45), (0.5, 0.5, 0.9))
     scene = make_bedroom(extra=[second_chair], extra_edges=[Edge(InstanceId(6), Relation.RESTS_ON, Root.FLOOR, 0.9)])
     gen = generate_questions(scene, ALL)
-    for item in gen.items:
-        assert "the chair" not in item.question, item.question
+    # chair 6 at (4, 2.5) is 1.6 m from the bed, chair 5 at (4, 1) 2.5 m: only chair 6 can be named, by the bed
+    named = [i for i in gen.items if "the chair" in i.question]
+    assert named
+    for item in named:
+        assert item.question.count("the chair") == item.question.count("the chair nearest to the bed"), item.question
+        assert 6 in item.object_ids and 5 not in item.object_ids, item.question
     assert gen.filtered["relative_position"][Filter.AMBIGUOUS_REFERENCE] > 0
+    higher = [i for i in by_template(gen.items, "higher") if set(i.object_ids) == {6, BED}]
+    assert higher and higher[0].answer == "chair nearest to the bed" and higher[0].answer in higher[0].choices
     counts = {i.question: i.answer for i in by_template(gen.items, "count")}
     assert counts["How many chairs are in the room?"] == "2"
     assert counts["How many beds are in the room?"] == "1"
+
+
+def test_shared_labels_are_named_by_their_support():
+    lamp2 = VqaObject.box(7, "lamp", (4.0, 1.0, 1.1), (0.2, 0.2, 0.4))
+    scene = make_bedroom(extra=[lamp2], extra_edges=[Edge(InstanceId(7), Relation.RESTS_ON, InstanceId(CHAIR), 0.9)])
+    gen = generate_questions(scene, ALL)
+    hop = {i.question: (i.answer, i.object_ids) for i in by_template(gen.items, "support_of_support")}
+    assert hop["What is the object under the lamp on the chair resting on?"] == ("floor", (7, CHAIR))
+    assert hop["What is the object under the lamp on the nightstand resting on?"] == ("floor", (LAMP, NIGHTSTAND))
+    # 'What is the lamp on the chair resting on?' would give the answer away
+    assert not [i for i in by_template(gen.items, "rests_on") if "lamp" in i.question]
+    assert gen.filtered["support_relation"][Filter.ANSWER_IN_QUESTION] == 2
 
 
 def test_wall_names_follow_inward_normals():

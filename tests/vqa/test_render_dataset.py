@@ -10,6 +10,7 @@ from PIL import Image
 from shapely.geometry import Point, box
 
 from rescene_core.vqa import (
+    Filter,
     VqaConfig,
     VqaInputError,
     build_vqa,
@@ -72,10 +73,7 @@ def test_written_dataset(bedroom, tmp_path):
     assert sum(summary["counts"].values()) == len(items)
     assert summary["render_backend"] == "open3d-raycast"
     assert summary["config"]["seed"] == SMALL.seed
-    assert set(summary["filtered_total"]) <= {
-        "ambiguous_reference", "low_confidence", "near_equal_distance", "near_equal_height",
-        "near_equal_bearing", "ambiguous_wall", "no_distractors",
-    }  # fmt: skip
+    assert set(summary["filtered_total"]) <= {f.value for f in Filter}
     pngs = sorted(p.name for p in (tmp_path / "vqa" / "views").glob("*.png"))
     assert pngs == [f"{vp.id}.png" for vp in dataset.viewpoints]
     img = np.asarray(Image.open(tmp_path / "vqa" / "views" / pngs[0]))
