@@ -209,6 +209,11 @@ class RegistrationConfig(_Section):
     """Target cleaning: DBSCAN core-point neighbourhood size."""
     min_result_inlier_ratio: float = 0.5
     """A final pose with fewer target inliers than this becomes Missing instead of a wild pose."""
+    upright_snap: bool = True
+    """A RANSAC candidate rejected only by the (gravity-up tilt) rotation gate is also tried turned upright
+    (smallest rotation taking the asset's up axis to world +z, about the asset's centre); the turned pose
+    passes every gate itself. Flat and symmetric objects (pictures, clocks, mirrors, boxes) otherwise lose
+    their well-fitting candidates to an arbitrary in-plane rotation. No effect with a placement prior."""
 
 
 class SceneGraphConfig(_Section):

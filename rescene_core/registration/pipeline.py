@@ -74,6 +74,30 @@ def rotation_gate_angle(world_from_asset: sim3.Matrix4, prior: sim3.Matrix4 | No
     return float(np.rad2deg(np.arccos(np.clip(float(rot[:, 2] @ UP), -1.0, 1.0))))
 
 
+def upright_snap(world_from_asset: sim3.Matrix4, asset_pivot: NDArray[np.float64]) -> sim3.Matrix4 | None:
+    """The pose turned by the smallest rotation that maps the asset's up axis (+z) onto world +z.
+
+    The turn is about the posed ``asset_pivot`` (asset frame, e.g. its bounding-box centre), so the asset
+    stays where it was; scale is unchanged. For a flat or rotationally symmetric object whose in-plane
+    rotation RANSAC got wrong, the asset's up axis lies in the object's plane and the turn is about the
+    plane's normal: the object keeps its fit and becomes upright. None when the up axis is exactly
+    upside down (the turn axis is undefined).
+    """
+    scale, rot, trans = sim3.parts_from_sim3(world_from_asset)
+    up = rot[:, 2]
+    axis = np.cross(up, UP)
+    norm = float(np.linalg.norm(axis))
+    cos = float(np.clip(up @ UP, -1.0, 1.0))
+    if norm < 1e-9:
+        return None if cos < 0 else world_from_asset
+    from scipy.spatial.transform import Rotation
+
+    turn = Rotation.from_rotvec(axis / norm * np.arctan2(norm, cos)).as_matrix()
+    new_rot = Rotation.from_matrix(turn @ rot).as_matrix()
+    pivot = scale * (rot @ asset_pivot) + trans
+    return sim3.sim3_from_parts(scale, new_rot, pivot - scale * (new_rot @ asset_pivot))
+
+
 def _check_inputs(asset: Asset, target: InstancePoints, config: RegistrationConfig) -> NDArray[np.float64]:
     vertices = np.asarray(asset.vertices, dtype=np.float64)
     faces = np.asarray(asset.faces)
@@ -279,7 +303,9 @@ def register_detailed(
         diag["ransac_error"] = f"{type(err).__name__}: {err}"
     accepted: list[tuple[sim3.Matrix4, Fit, dict[str, Any]]] = []
     candidates_json: list[dict[str, Any]] = []
-    for k, cand in enumerate(candidates):
+
+    def consider(cand: sim3.Matrix4, name: str) -> list[str]:
+        """Gate one candidate against the normalisation pose, record it; returns the reasons it failed."""
         fit = evaluator(cand)
         reasons = _gate(fit, reference_fit, config)
         scale_ratio = sim3.parts_from_sim3(cand)[0] / extent_scale
@@ -293,7 +319,7 @@ def register_detailed(
             reasons.append(f"init rotation gate {gate:.1f} deg > {config.init_rotation_gate_deg}")
         duplicate = next((j for j, (other, _, _) in enumerate(accepted) if _same_pose(cand, other, extent)), None)
         record = {
-            "source": f"fpfh_ransac[{k}]",
+            "source": name,
             "pose": _pose_json(cand),
             "fit": fit.to_json(),
             "scale_vs_extent_ratio": float(scale_ratio),
@@ -305,6 +331,15 @@ def register_detailed(
         candidates_json.append(record)
         if not reasons and duplicate is None:
             accepted.append((cand, fit, record))
+        return reasons
+
+    for k, cand in enumerate(candidates):
+        reasons = consider(cand, f"fpfh_ransac[{k}]")
+        only_tilt = bool(reasons) and all(r.startswith("init rotation gate") for r in reasons)
+        if config.upright_snap and prior is None and only_tilt:
+            snapped = upright_snap(cand, src_norm.centre)
+            if snapped is not None:
+                consider(snapped, f"fpfh_ransac[{k}]+upright")
     if not accepted:
         record = {"source": "normalisation", "pose": _pose_json(reference), "fit": reference_fit.to_json()}
         candidates_json.append(record)

@@ -204,3 +204,63 @@ def test_umeyama_recovers_exact_similarity():
     s, r = umeyama(a, b)
     assert abs(s - 1.7) < 1e-9
     np.testing.assert_allclose(r, rot, atol=1e-9)
+
+
+def picture_mesh() -> trimesh.Trimesh:
+    """A flat wall picture (0.6 x 0.03 x 0.45 m) with a deeper bottom rail, so its in-plane rotation is visible."""
+    panel = trimesh.creation.box((0.6, 0.03, 0.45), trimesh.transformations.translation_matrix((0, 0, 0.225)))
+    rail = trimesh.creation.box((0.6, 0.06, 0.04), trimesh.transformations.translation_matrix((0, 0.015, 0.02)))
+    return trimesh.util.concatenate([panel, rail])
+
+
+def _in_plane_turned(world_from_asset, asset, angle_deg):
+    """The pose turned by angle_deg about the posed picture's normal (world), about the posed asset's centre."""
+    s, rot, t = sim3.parts_from_sim3(world_from_asset)
+    centre = 0.5 * (asset.vertices.min(axis=0) + asset.vertices.max(axis=0))
+    normal = rot @ np.array([0.0, 1.0, 0.0])  # the picture's front in the world (no hidden tilt in these cases)
+    turn = Rotation.from_rotvec(normal / np.linalg.norm(normal) * np.deg2rad(angle_deg)).as_matrix()
+    pivot = s * rot @ centre + t
+    return sim3.sim3_from_parts(s, turn @ rot, pivot - s * (turn @ rot) @ centre)
+
+
+def _picture_case():
+    mesh = picture_mesh()
+    rng = np.random.default_rng(5)
+    hidden = sim3.sim3_from_parts(1.4, Rotation.from_euler("z", 40, degrees=True).as_matrix(), np.zeros(3))
+    asset, asset_from_object = unit_box_asset(mesh, hidden)
+    world_from_object = sim3.sim3_from_parts(1.0, Rotation.from_euler("z", 130, degrees=True).as_matrix(), [1, 2, 1.2])
+    target = scan(mesh, world_from_object, rng, partial=True, noise=0.003)
+    return mesh, asset, target, sim3.compose(world_from_object, sim3.inverse(asset_from_object))
+
+
+def test_upright_snap_undoes_an_in_plane_turn():
+    _, asset, _, gt = _picture_case()
+    turned = _in_plane_turned(gt, asset, 70.0)
+    assert register_module.rotation_gate_angle(turned, None) > 60.0
+    centre = 0.5 * (asset.vertices.min(axis=0) + asset.vertices.max(axis=0))
+    snapped = register_module.upright_snap(turned, centre)
+    np.testing.assert_allclose(snapped, gt, atol=1e-9)
+    upside_down = _in_plane_turned(gt, asset, 180.0)
+    assert register_module.upright_snap(upside_down, centre) is None
+
+
+@pytest.mark.parametrize("snap", [True, False])
+def test_flat_picture_keeps_its_in_plane_rotation(monkeypatch, snap):
+    """RANSAC on a flat object fits the plane but may turn it in-plane; the tilt gate rejects that candidate.
+    With upright_snap the turned candidate is set upright and wins; without it the picture is lost."""
+    mesh, asset, target, gt = _picture_case()
+    turned = _in_plane_turned(gt, asset, 65.0)
+    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [turned])
+    config = RegistrationConfig(upright_snap=snap)
+    pose, diag = register_detailed(asset, target, config)
+    first = diag["init"]["candidates"][0]
+    assert not first["accepted"] and all("rotation gate" in r for r in first["reasons"])
+    if snap:
+        assert isinstance(pose, Pose), pose
+        assert diag["final"]["init"] == "fpfh_ransac[0]+upright"
+        adds, scale_err = _errors(pose, asset, gt, mesh)
+        assert adds < 0.03 and scale_err < 0.03
+        assert register_module.rotation_gate_angle(pose.world_from_asset, None) < 5.0
+    else:
+        assert all(c["source"] != "fpfh_ransac[0]+upright" for c in diag["init"]["candidates"])
+        assert isinstance(pose, Missing) or _errors(pose, asset, gt, mesh)[0] > 0.05
