@@ -200,3 +200,17 @@ def test_edges_to_missing_objects_are_ignored(bedroom):
     items = generate_questions(scene, ALL).items
     assert all(NIGHTSTAND not in i.object_ids for i in items)
     assert "What is the lamp resting on?" not in {i.question for i in items}
+
+
+def test_mounted_on_an_object():
+    cabinet = VqaObject.box(8, "cabinet", (4.6, 3.0, 0.5), (0.6, 0.8, 1.0))
+    shelf = VqaObject.box(9, "shelf", (4.6, 3.0, 1.3), (0.5, 0.7, 0.3))
+    edges = [
+        Edge(InstanceId(8), Relation.RESTS_ON, Root.FLOOR, 0.9),
+        Edge(InstanceId(9), Relation.MOUNTS_ON, InstanceId(8), 0.9),
+    ]
+    items = generate_questions(make_bedroom(extra=[cabinet, shelf], extra_edges=edges), ALL).items
+    mounted = {i.question: (i.answer, i.object_ids) for i in by_template(items, "mounted_on_object")}
+    assert mounted == {"What is the shelf mounted on?": ("cabinet", (9, 8))}
+    # a shelf mounted on a cabinet is not on a wall
+    assert "shelf" not in {i.answer for i in by_template(items, "mounted_on_a_wall")}
