@@ -73,6 +73,15 @@ def demo_command(args: argparse.Namespace) -> int:
         scene_flow.PROGRESS_LISTENERS.remove(on_instance)
     seconds = time.perf_counter() - start
     print(f"\nflow run: {state.name} in {seconds:.1f} s{': ' + state.message if state.message else ''}")
+    if (run_dir / "layout.json").exists():
+        from rescene_core.vqa import VqaInputError, vqa_for_run
+
+        try:
+            with console.status("generating embodied VQA questions from the assembled scene"):
+                vqa = vqa_for_run(run_dir)
+            console.print(f"vqa: {vqa['questions']} questions over {len(vqa['views'])} rendered views")
+        except VqaInputError as err:
+            console.print(f"vqa: skipped ({err})")
     print("where to look:")
     looks = [
         ("scene (open in any glTF viewer)", run_dir / "scene" / "scene.glb"),
@@ -80,6 +89,7 @@ def demo_command(args: argparse.Namespace) -> int:
         ("evaluation report", run_dir / "eval" / "report.md"),
         ("run log (open in Foxglove Studio; `rescene log` summarises it)", run_dir / "logs" / "run.mcap"),
         ("run manifest", run_dir / "manifest.json"),
+        ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run_dir / "vqa" / "questions.jsonl"),
     ]
     looks += [("picture", p) for p in sorted(out.glob(f"{capture.stem}*.png"))]
     for what, path in looks:
