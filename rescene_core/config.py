@@ -214,6 +214,12 @@ class RegistrationConfig(_Section):
     (smallest rotation taking the asset's up axis to world +z, about the asset's centre); the turned pose
     passes every gate itself. Flat and symmetric objects (pictures, clocks, mirrors, boxes) otherwise lose
     their well-fitting candidates to an arbitrary in-plane rotation. No effect with a placement prior."""
+    ransac_early_exit_inlier_ratio: float = 0.95
+    """Early exit of the RANSAC restarts: once an accepted candidate (all gates passed) has this target
+    inlier ratio, the remaining restarts are skipped (> 1 disables the exit)."""
+    probe_iterations: int = 15
+    """With several accepted candidates, each is first refined for this many ICP iterations and only the
+    best by symmetric fitness gets the full ``max_iterations`` from its own initialisation (0 refines all)."""
 
 
 class SceneGraphConfig(_Section):

@@ -14,6 +14,7 @@ identity) is the reference pose the initialisation gate compares against.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,8 +71,12 @@ def fpfh_ransac_candidates(
     source_norm: Normalisation,
     target_norm: Normalisation,
     config: RegistrationConfig,
+    stop: Callable[[sim3.Matrix4], bool] | None = None,
 ) -> list[sim3.Matrix4]:
     """One world_from_asset candidate per RANSAC restart (restart r uses seed ``config.seed + r``).
+
+    ``stop``, when given, sees each valid candidate as soon as its restart ends; returning True skips
+    the remaining restarts (early exit once a candidate is clearly good). The features are computed once.
 
     source: float64 [n, 3] asset frame; target: float64 [m, 3] world metres. Invalid candidates
     (not a similarity with positive scale) are dropped here.
@@ -106,7 +111,10 @@ def fpfh_ransac_candidates(
         tn_from_sn = np.asarray(result.transformation, dtype=np.float64)
         if sim3.check_sim3(tn_from_sn, atol=1e-5):
             continue
-        out.append(
-            sim3.compose(target_norm.frame_from_normalised, sim3.compose(tn_from_sn, source_norm.normalised_from_frame))
+        cand = sim3.compose(
+            target_norm.frame_from_normalised, sim3.compose(tn_from_sn, source_norm.normalised_from_frame)
         )
+        out.append(cand)
+        if stop is not None and stop(cand):
+            break
     return out

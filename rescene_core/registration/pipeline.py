@@ -295,12 +295,6 @@ def register_detailed(
     reference = normalisation_pose(src_norm, tgt_norm)
     reference_fit = evaluator(reference)
     extent_scale = sim3.parts_from_sim3(reference)[0]
-    try:
-        candidates = fpfh_ransac_candidates(source, tgt, src_norm, tgt_norm, config)
-        diag["ransac_error"] = None
-    except Exception as err:  # an Open3D failure leaves the normalisation pose as initialisation
-        candidates = []
-        diag["ransac_error"] = f"{type(err).__name__}: {err}"
     accepted: list[tuple[sim3.Matrix4, Fit, dict[str, Any]]] = []
     candidates_json: list[dict[str, Any]] = []
 
@@ -333,22 +327,52 @@ def register_detailed(
             accepted.append((cand, fit, record))
         return reasons
 
-    for k, cand in enumerate(candidates):
+    processed = 0
+
+    def process(cand: sim3.Matrix4) -> bool:
+        """Gate a RANSAC candidate (and its upright turn); True once one accepted fits well enough to stop."""
+        nonlocal processed
+        k = processed
+        processed += 1
         reasons = consider(cand, f"fpfh_ransac[{k}]")
         only_tilt = bool(reasons) and all(r.startswith("init rotation gate") for r in reasons)
         if config.upright_snap and prior is None and only_tilt:
             snapped = upright_snap(cand, src_norm.centre)
             if snapped is not None:
                 consider(snapped, f"fpfh_ransac[{k}]+upright")
+        return any(fit.inlier_ratio >= config.ransac_early_exit_inlier_ratio for _, fit, _ in accepted)
+
+    try:
+        candidates = fpfh_ransac_candidates(source, tgt, src_norm, tgt_norm, config, stop=process)
+        diag["ransac_error"] = None
+    except Exception as err:  # an Open3D failure leaves the normalisation pose as initialisation
+        candidates = []
+        diag["ransac_error"] = f"{type(err).__name__}: {err}"
+    for cand in candidates[processed:]:  # candidates not yet seen by the stop callback
+        process(cand)
+    diag["ransac_restarts_run"] = processed
     if not accepted:
         record = {"source": "normalisation", "pose": _pose_json(reference), "fit": reference_fit.to_json()}
         candidates_json.append(record)
         accepted.append((reference, reference_fit, record))
     diag["init"] = {"reference_fit": reference_fit.to_json(), "candidates": candidates_json}
 
-    # 2) bounded refinement of every accepted candidate; the best gated result by symmetric fitness wins
+    # 2) bounded refinement of the accepted candidates; the best gated result by symmetric fitness wins.
+    # With several candidates each first gets a short probe refinement (probe_iterations); only the best
+    # probe is refined with the full budget, from its own initialisation (same bounds as a direct run).
     best: tuple[tuple[float, float], sim3.Matrix4, Fit, str, dict[str, Any], dict[str, Any]] | None = None
-    for init, init_fit, record in accepted:
+    probing = len(accepted) > 1 and 0 < config.probe_iterations < config.max_iterations
+    if probing:
+        probe_config = config.model_copy(update={"max_iterations": config.probe_iterations})
+        probes = []
+        for init, init_fit, record in accepted:
+            _, probe_fit, _, _ = _refine(source, tgt, init, init_fit, evaluator, extent, prior, probe_config)
+            record["probe_fit"] = probe_fit.to_json()
+            probes.append((probe_fit.symmetric_fitness, -probe_fit.rmse))
+        finalists = [accepted[int(max(range(len(probes)), key=probes.__getitem__))]]
+    else:
+        finalists = accepted
+    for init, init_fit, record in finalists:
         final, final_fit, method, refinement = _refine(source, tgt, init, init_fit, evaluator, extent, prior, config)
         record["refined_fit"] = final_fit.to_json()
         record["method"] = method

@@ -264,3 +264,31 @@ def test_flat_picture_keeps_its_in_plane_rotation(monkeypatch, snap):
     else:
         assert all(c["source"] != "fpfh_ransac[0]+upright" for c in diag["init"]["candidates"])
         assert isinstance(pose, Missing) or _errors(pose, asset, gt, mesh)[0] > 0.05
+
+
+def test_ransac_restarts_stop_early_once_a_candidate_fits():
+    asset, target, gt = _case(chair_mesh(), seed=3, partial=False)
+    _, eager = register_detailed(asset, target, CONFIG)
+    first = eager["init"]["candidates"][0]
+    assert eager["ransac_restarts_run"] == 1 and first["accepted"]
+    assert first["fit"]["inlier_ratio"] >= CONFIG.ransac_early_exit_inlier_ratio
+    _, full = register_detailed(asset, target, CONFIG.model_copy(update={"ransac_early_exit_inlier_ratio": 1.1}))
+    assert full["ransac_restarts_run"] == CONFIG.ransac_restarts
+
+
+def test_only_the_best_probe_gets_the_full_refinement(monkeypatch):
+    mesh = chair_mesh()
+    asset, target, gt = _case(mesh, seed=3, partial=False)
+    near = sim3.compose(sim3.sim3_from_parts(1.03, Rotation.from_rotvec([0, 0, 0.1]).as_matrix(), np.zeros(3)), gt)
+    off = sim3.compose(sim3.sim3_from_parts(1.0, Rotation.from_rotvec([0, 0, 0.2]).as_matrix(), np.zeros(3)), gt)
+    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [off, near])
+    pose, diag = register_detailed(asset, target, CONFIG.model_copy(update={"ransac_early_exit_inlier_ratio": 1.1}))
+    cands = [c for c in diag["init"]["candidates"] if c["accepted"]]
+    assert len(cands) == 2 and all("probe_fit" in c for c in cands)
+    assert [("refined_fit" in c) for c in cands] == [False, True]
+    assert diag["final"]["init"] == "fpfh_ransac[1]"
+    assert (
+        diag["refinement"]["iterations"] > CONFIG.probe_iterations or diag["refinement"]["stop_reason"] == "converged"
+    )
+    adds, scale_err = _errors(pose, asset, gt, mesh)
+    assert adds < 0.02 and scale_err < 0.02
