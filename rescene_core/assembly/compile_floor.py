@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.assembly.evidence import centre_inside_polygon
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -80,7 +81,14 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
     info["vertical_m"] = drop
     inner = inner_polygon(room, cfg.wall_collision_margin)
     if inner is not None:
-        fp = footprint(apply(correction @ pose, obj.vertices))
+        moved = apply(correction @ pose, obj.vertices)
+        fp = footprint(moved)
+        if not obj.exact_shape and not fp.within(room.polygon):
+            # generated asset: only the part inside the room counts while its centre is inside (evidence.py)
+            centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
+            if centre_inside_polygon(room.polygon, centre):
+                core = fp.intersection(inner)
+                fp = core.convex_hull if not core.is_empty and core.area > 0 else fp
         if not fp.within(room.polygon):
             shift = fit_translation(fp, inner)
             if shift is None:

@@ -97,13 +97,16 @@ def compile_support(
     feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
     level = min(feasible, key=lambda lv: abs(lv.height - bottom)) if feasible else levels[0]
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
-    shift = fit_translation(fp, level.polygon)
-    how = "footprint on face"
+    if obj.exact_shape:
+        shift = fit_translation(fp, level.polygon)
+        how = "footprint on face"
+    else:  # generated asset: only its centre is evidence of where it stands (rescene_core.assembly.evidence)
+        shift, how = None, "centre on face (generated asset)"
     if shift is None:
         centroid = fp.centroid
         target = centroid if level.polygon.contains(centroid) else nearest_points(level.polygon, centroid)[0]
         shift = np.array([target.x - centroid.x, target.y - centroid.y])
-        how = "centroid on face (footprint larger than face)"
+        how = how if not obj.exact_shape else "centroid on face (footprint larger than face)"
     correction = translation([shift[0], shift[1], 0.0] + lift * room.up) @ correction
     info = {
         "parent": int(parent),

@@ -4,7 +4,9 @@ Wall resolution (per child): for every wall, the child's back axis is the horizo
 to the wall's outward normal; the energy is the coplanarity residual (distance of the back surface from
 the plane, m) + ``wall_normal_weight`` x the normal mismatch (rad) + the distance by which the child lies
 beyond the wall segment (m). Walls needing more than ``max_wall_yaw_deg`` of yaw are not candidates.
-An edge that already names its wall (``Edge.wall_id``) keeps it.
+An edge that already names its wall (``Edge.wall_id``) gets a bonus of half the yaw-limit penalty
+(``wall_normal_weight`` x ``max_wall_yaw_deg`` / 2) on that wall, and may keep it beyond the yaw limit,
+but a wall the geometry clearly prefers wins (fused graphs name the wrong wall of a corner now and then).
 
 Lateral order (per wall): the along-wall target of each child is its current along-wall position,
 clamped so the object stays ``wall_corner_margin`` m inside the segment ends; when clamping would swap
@@ -23,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.assembly.evidence import centre_inside_wall, face_yaw, wall_gap, yaw_to_direction
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import (
@@ -53,15 +56,23 @@ def horizontal_axes(pose: NDArray, up: NDArray) -> tuple[int, ...]:
 
 
 def wall_cost(state: LayoutState, child: InstanceId, wall: Wall) -> tuple[float, int, float, float]:
-    """(energy, back-axis index, sign, yaw needed in rad) of mounting ``child`` on ``wall``."""
+    """(energy, back-axis index, sign, yaw needed in rad) of mounting ``child`` on ``wall``.
+
+    Exact shapes: the back axis is the horizontal asset axis nearest the wall's outward direction.
+    Generated assets (``rescene_core.assembly.evidence``): the yaw comes from the mesh's vertical faces
+    (index -1); a mesh with no face direction within ``max_wall_yaw_deg`` needs no yaw (0) but pays
+    ``wall_normal_weight`` x the yaw limit, so a wall its faces agree with is preferred."""
     pose = state.pose(child)
-    verts = state.vertices(child)
-    idx, sign, axis = nearest_axis(pose, -wall.normal, horizontal_axes(pose, state.room.up))
-    yaw = signed_yaw(axis, -wall.normal, state.room.up)
-    coplanar = abs(float(wall.distance(verts).min()))
+    max_yaw = np.radians(state.config.max_wall_yaw_deg)
+    found = yaw_to_direction(state, child, -wall.normal, horizontal_axes(pose, state.room.up), max_yaw)
+    if found is None:
+        idx, sign, yaw, penalty = -1, 1.0, 0.0, max_yaw
+    else:
+        (yaw, idx, sign), penalty = found, abs(found[0])
+    coplanar = abs(wall_gap(state, child, wall))
     along = wall.along(state.centre(child)[None])[0]
     beyond = max(0.0, -along, along - wall.length)
-    return coplanar + state.config.wall_normal_weight * abs(yaw) + beyond, idx, sign, yaw
+    return coplanar + state.config.wall_normal_weight * penalty + beyond, idx, sign, yaw
 
 
 def resolve_walls(state: LayoutState) -> dict[InstanceId, WallChoice]:
@@ -75,10 +86,12 @@ def resolve_walls(state: LayoutState) -> dict[InstanceId, WallChoice]:
             continue
         named = room.wall(edge.wall_id) if edge.wall_id is not None else None
         best = None
-        for wall in [named] if named is not None else room.walls:
+        for wall in room.walls:
             cost, idx, sign, yaw = wall_cost(state, child, wall)
-            if abs(yaw) > np.radians(cfg.max_wall_yaw_deg) and named is None:
+            if abs(yaw) > np.radians(cfg.max_wall_yaw_deg) and wall is not named:
                 continue
+            if wall is named:  # the graph's wall wins ties; a wall the geometry clearly prefers still wins
+                cost -= cfg.wall_normal_weight * np.radians(cfg.max_wall_yaw_deg) * 0.5
             if best is None or cost < best[3]:
                 best = (wall, idx, sign, cost)
         if best is None:
@@ -140,12 +153,19 @@ def compile_wall(
     verts = state.vertices(child)
     pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
     correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
-    axis = plan.sign * (correction @ pose)[:3, plan.axis]
-    yaw = signed_yaw(axis, -wall.normal, room.up)
+    if plan.axis >= 0:  # exact shape: the asset axis is the object's back axis
+        axis = plan.sign * (correction @ pose)[:3, plan.axis]
+        yaw = signed_yaw(axis, -wall.normal, room.up)
+    else:  # generated asset: the back face is read from the mesh faces (none found: keep the yaw)
+        yaw = face_yaw(state, child, -wall.normal, np.radians(cfg.max_wall_yaw_deg)) or 0.0
     yaw = float(np.clip(yaw, -np.radians(cfg.max_wall_yaw_deg), np.radians(cfg.max_wall_yaw_deg)))
     correction = rotation_about(yaw * room.up, pivot) @ correction
     moved = apply(correction @ pose, obj.vertices)
-    push = -float(wall.distance(moved).min())
+    gap = float(wall.distance(moved).min())
+    centre_in_front = centre_inside_wall(wall, 0.5 * (moved.min(axis=0) + moved.max(axis=0)))
+    if gap < 0.0 and not obj.exact_shape and centre_in_front:
+        gap = 0.0  # penetration of a generated asset whose centre is in front: completion, already in contact
+    push = -gap
     centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
     slide = plan.target_along - float(wall.along(centre[None])[0])
     floor_gap = float(room.floor_distance(moved).min())

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from shapely.geometry import Polygon
 
 from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.evidence import containment_footprint
 from rescene_core.assembly.refine import containment_region, is_outside
 from rescene_core.assembly.room import fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -93,7 +94,7 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                 i, translation(move), stage, "contact-reverse displacement", iteration=iteration, partners=partners[i]
             )
             if not was_outside and is_outside(state, i):
-                shift = fit_translation(state.footprint(i), containment_region(state, i))
+                shift = fit_translation(containment_footprint(state, i), containment_region(state, i))
                 if shift is not None:
                     state.move(i, translation([shift[0], shift[1], 0.0]), stage, "keep inside after push")
     pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)

@@ -24,6 +24,11 @@ class AssemblyObject:
     instance: canonical instance id. label: category label ('bed', 'lamp', ...).
     vertices: float64 [v, 3] mesh vertices in the asset frame. faces: int64 [f, 3] triangle indices.
     world_from_asset: float64 [4, 4] Sim(3), the registered pose T_i (asset frame -> world metres).
+    exact_shape: True when the mesh is the object's true shape in a frame aligned with the object (synthetic
+        ground truth, CAD models). False (default) for generated assets: their unseen side was completed
+        by the generator and their asset axes need not follow the object's faces, so the rules find the
+        back face from the mesh faces and treat geometry that crosses the room boundary while the object's
+        centre is inside as a completion error, not a pose error (docs/assembly.md, "Generated assets").
     """
 
     instance: InstanceId
@@ -31,6 +36,7 @@ class AssemblyObject:
     vertices: NDArray[np.float64]
     faces: NDArray[np.int64]
     world_from_asset: NDArray[np.float64]
+    exact_shape: bool = False
 
     def world_vertices(self, world_from_asset: NDArray | None = None) -> NDArray[np.float64]:
         """Vertices [v, 3] in the world under ``world_from_asset`` (default: the registered pose)."""

@@ -20,9 +20,10 @@ import numpy as np
 
 from rescene_core.assembly.compile_floor import inner_polygon
 from rescene_core.assembly.compile_wall import horizontal_axes
+from rescene_core.assembly.evidence import containment_footprint, wall_gap, yaw_to_direction
 from rescene_core.assembly.room import Wall, fit_translation
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.transforms import nearest_axis, rotation_about, signed_yaw, translation
+from rescene_core.assembly.transforms import rotation_about, translation
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import InstanceId, Relation, Root
 
@@ -53,20 +54,23 @@ def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float,
     for wall in room.walls:
         if not _overlaps_segment(wall, verts):
             continue
-        gap = float(wall.distance(verts).min())
+        gap = wall_gap(state, i, wall)
         if gap > max_gap:
             continue
-        _, _, axis = nearest_axis(pose, -wall.normal, horizontal_axes(pose, room.up))
-        yaw = signed_yaw(axis, -wall.normal, room.up)
-        if abs(yaw) > max_rot:
+        found = yaw_to_direction(state, i, -wall.normal, horizontal_axes(pose, room.up), max_rot)
+        if found is None or abs(found[0]) > max_rot:
             continue
+        yaw = found[0]
         if best is None or abs(gap) < abs(best[1]):
             best = (wall, gap, yaw)
     if best is None:
         return False
     wall, gap, yaw = best
     turn = rotation_about(yaw * room.up, pivot)
-    new_gap = float(wall.distance(apply(turn @ pose, state.objects[i].vertices)).min())
+    turned = apply(turn @ pose, state.objects[i].vertices)
+    new_gap = float(wall.distance(turned).min())
+    if new_gap < 0.0 and gap >= 0.0 and not state.objects[i].exact_shape:
+        new_gap = 0.0  # generated asset: penetration with the centre in front is completion (evidence.py)
     # a gap already inside [0, margin] is contact: keep it; otherwise close (or open) it to the margin
     push = float(np.clip(new_gap, 0.0, cfg.wall_collision_margin)) - new_gap
     if abs(push) > max_move:
@@ -123,7 +127,7 @@ def cabinet_corner(state: LayoutState) -> None:
         verts = state.vertices(i)
         near = []
         for wall in room.walls:
-            gap = float(wall.distance(verts).min())
+            gap = wall_gap(state, i, wall)
             if _overlaps_segment(wall, verts) and gap <= cfg.cabinet_corner_translation:
                 near.append((gap, wall))
         near.sort(key=lambda gw: gw[0])
@@ -157,7 +161,7 @@ def is_outside(state: LayoutState, i: InstanceId) -> bool:
     room = state.room
     if room.polygon is None:
         return False
-    return not state.footprint(i).within(room.polygon.buffer(state.config.containment_tolerance))
+    return not containment_footprint(state, i).within(room.polygon.buffer(state.config.containment_tolerance))
 
 
 def outside_repair(state: LayoutState, stage: str = "outside repair") -> None:
@@ -168,7 +172,7 @@ def outside_repair(state: LayoutState, stage: str = "outside repair") -> None:
     for i in order:
         if i in state.unfit or not is_outside(state, i):
             continue
-        shift = fit_translation(state.footprint(i), containment_region(state, i))
+        shift = fit_translation(containment_footprint(state, i), containment_region(state, i))
         if shift is None:
             state.skip(i, stage, "footprint is larger than the room; left in place")
             continue

@@ -38,9 +38,10 @@ def placed(x: float, y: float, z: float = 0.0, yaw_deg: float = 0.0) -> np.ndarr
     return translation([x, y, z]) @ rotation_about([0.0, 0.0, np.radians(yaw_deg)], [0.0, 0.0, 0.0])
 
 
-def box_object(instance: int, label: str, extents, world_from_asset) -> AssemblyObject:
+def box_object(instance: int, label: str, extents, world_from_asset, exact_shape: bool = True) -> AssemblyObject:
+    """A box of ``extents`` (m) whose asset frame is its own (an exact shape unless told otherwise)."""
     v, f = box_asset(extents)
-    return AssemblyObject(InstanceId(instance), label, v, f, np.asarray(world_from_asset, np.float64))
+    return AssemblyObject(InstanceId(instance), label, v, f, np.asarray(world_from_asset, np.float64), exact_shape)
 
 
 def bedroom() -> tuple[dict[InstanceId, AssemblyObject], SceneGraph, RoomShell]:

@@ -96,7 +96,12 @@ def ground_truth_layout(preset: str, seed: int):
         shell, source = gt.shell, "make_scene ground truth"
     objects = {
         InstanceId(oid): AssemblyObject(
-            InstanceId(oid), label, np.asarray(v, np.float64), np.asarray(f, np.int64), np.asarray(pose, np.float64)
+            InstanceId(oid),
+            label,
+            np.asarray(v, np.float64),
+            np.asarray(f, np.int64),
+            np.asarray(pose, np.float64),
+            exact_shape=True,
         )
         for oid, label, v, f, pose, *_ in items
     }

@@ -1,0 +1,129 @@
+"""What the rules may trust of a generated asset: its faces' directions and its extent inside the room.
+
+A generated asset (``AssemblyObject.exact_shape`` False) is registered to the points a camera saw, so its
+registered centre and its seen faces are evidence, but (a) its asset axes follow the generator's frame,
+not the object's faces, and (b) its unseen side is a completion (a single-view generator mirrors or
+extrudes the seen side), often deeper than the object. Geometry that crosses a wall or leaves the floor
+polygon while the object's bounding-box centre is inside the room cannot have been seen from inside the
+room: it is a completion error, and moving the object by it moves a well-registered object away from
+where it was seen. For such objects:
+
+* ``wall_gap``: the gap to a wall is the smallest distance of the mesh, but penetration counts as contact
+  (gap 0) while the centre is in front of the wall;
+* ``containment_footprint``: containment tests use the footprint clipped to the floor polygon while the
+  centre is inside it;
+* ``face_yaw``: the yaw that turns the object square to a direction is read from the mesh's vertical
+  faces (area-weighted histogram of their horizontal normals, folded modulo 180 deg), not from the asset
+  axes; None when no face direction holds at least ``FACE_YAW_MIN_FRACTION`` of the vertical area.
+
+Exact shapes keep the full-mesh behaviour (and the asset-axis yaw, their frame being the object's own).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import Point, Polygon
+
+from rescene_core.assembly.room import Wall
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import horizontal, nearest_axis, signed_yaw
+from rescene_core.records import InstanceId
+
+FACE_YAW_BIN_DEG = 2.0
+"""Bin width (deg) of the face-direction histogram."""
+FACE_YAW_MIN_FRACTION = 0.08
+"""Smallest share of the vertical face area a face direction needs to set the yaw."""
+SEEN_SIDE_TOLERANCE = 0.10
+"""How far (m) a generated asset's bounding-box centre may lie behind a wall or outside the floor polygon
+and still count as inside: a single-view completion is mirrored about the seen points, so the centre lies
+near the seen surface, which is inside the room up to depth noise and registration error (about 0.1 m on the standard preset)."""
+VERTICAL_FACE_MAX_TILT_DEG = 30.0
+"""Faces whose normal is within this angle of horizontal count as vertical faces (deg)."""
+
+
+def trusts_full_extent(state: LayoutState, i: InstanceId) -> bool:
+    return bool(state.objects[i].exact_shape)
+
+
+def wall_gap(state: LayoutState, i: InstanceId, wall: Wall) -> float:
+    """Gap (m) between object i and ``wall`` (negative: penetration), read as described above."""
+    gap = float(wall.distance(state.vertices(i)).min())
+    if gap < 0.0 and not trusts_full_extent(state, i) and centre_inside_wall(wall, state.centre(i)):
+        return 0.0
+    return gap
+
+
+def centre_inside_wall(wall: Wall, centre: NDArray) -> bool:
+    """Whether a generated asset's centre [3] counts as in front of ``wall`` (see SEEN_SIDE_TOLERANCE)."""
+    return float(wall.distance(np.asarray(centre)[None])[0]) > -SEEN_SIDE_TOLERANCE
+
+
+def centre_inside_polygon(polygon: Polygon, centre: NDArray) -> bool:
+    """Whether a generated asset's centre [3] counts as inside the floor ``polygon``."""
+    return bool(polygon.buffer(SEEN_SIDE_TOLERANCE).contains(Point(centre[0], centre[1])))
+
+
+def containment_footprint(state: LayoutState, i: InstanceId) -> Polygon:
+    """Footprint of object i used by the containment tests and repairs (see the module docstring)."""
+    fp = state.footprint(i)
+    poly = state.room.polygon
+    if poly is None or trusts_full_extent(state, i) or fp.within(poly):
+        return fp
+    if not centre_inside_polygon(poly, state.centre(i)):
+        return fp
+    core = fp.intersection(poly.buffer(-state.config.wall_collision_margin, join_style="mitre"))
+    if core.is_empty or core.area <= 0:
+        return fp
+    hull = core.convex_hull
+    return hull if isinstance(hull, Polygon) else fp
+
+
+def face_yaw(state: LayoutState, i: InstanceId, direction: NDArray, max_yaw_rad: float) -> float | None:
+    """Signed yaw (rad, about the room's up) turning object i's nearest vertical face direction onto
+    ``direction`` (either sense), within ``max_yaw_rad``; None when no face direction is strong enough."""
+    up = state.room.up
+    obj = state.objects[i]
+    tri = state.vertices(i)[np.asarray(obj.faces)]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(normals, axis=1)
+    ok = area > 1e-12
+    n = normals[ok] / (2.0 * area[ok, None])
+    area = area[ok]
+    vertical = np.abs(n @ up) < np.sin(np.radians(VERTICAL_FACE_MAX_TILT_DEG))
+    if not vertical.any():
+        return None
+    n, area = n[vertical], area[vertical]
+    d = horizontal(np.asarray(direction, dtype=np.float64), up)
+    d = d / np.linalg.norm(d)
+    side = np.cross(up, d)
+    # angle of each face normal from the direction, folded to [-90, 90) deg (a face and its opposite agree)
+    ang = np.arctan2(n @ side, n @ d)
+    ang = (ang + np.pi / 2) % np.pi - np.pi / 2
+    width = np.radians(FACE_YAW_BIN_DEG)
+    edges = np.arange(-max_yaw_rad - width, max_yaw_rad + 2 * width, width)
+    hist, _ = np.histogram(ang, bins=edges, weights=area)
+    hist = np.convolve(hist, [0.25, 0.5, 0.25], mode="same")
+    k = int(np.argmax(hist))
+    if hist[k] < FACE_YAW_MIN_FRACTION * area.sum():
+        return None
+    centre = 0.5 * (edges[k] + edges[k + 1])
+    near = np.abs(ang - centre) <= 1.5 * width
+    peak = float(np.average(ang[near], weights=area[near])) if near.any() else centre
+    if abs(peak) > max_yaw_rad:
+        return None
+    return -peak  # turning by -peak brings that face direction onto ``direction``
+
+
+def yaw_to_direction(state: LayoutState, i: InstanceId, direction: NDArray, candidates, max_yaw_rad: float):
+    """(yaw in rad turning object i square to ``direction``, asset axis index, sign) or None when no yaw
+    within ``max_yaw_rad`` is supported. Exact shapes: the nearest asset axis; generated ones: face_yaw
+    (axis -1: no asset axis is used)."""
+    pose = state.pose(i)
+    if trusts_full_extent(state, i):
+        idx, sign, axis = nearest_axis(pose, direction, candidates)
+        return signed_yaw(axis, direction, state.room.up), idx, sign
+    yaw = face_yaw(state, i, direction, max_yaw_rad)
+    if yaw is None:
+        return None
+    return yaw, -1, 1.0
