@@ -1,0 +1,86 @@
+"""Generated (single-view, completed) assets: asset axes not on the object's faces, completion too deep."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from rescene_core.assembly import AssemblyObject, attach
+from rescene_core.assembly.scenes import rect_room
+from rescene_core.assembly.transforms import rigid_change, rotation_about, translation
+from rescene_core.config import AttachmentConfig
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+
+VIEW_DEG = 40.0
+"""Angle between the panel's normal and the view direction (the generator's +y)."""
+
+
+def lifted_panel(width=1.2, height=0.7, depth=0.6):
+    """A `lift`-like TV: the seen panel completed along the view direction into a slanted prism.
+
+    Asset frame like the generator's: +z up, +y the view direction (40 deg off the panel normal), so the
+    panel's back is neither the asset's -y face nor any asset axis. Returns (vertices, faces, panel normal
+    in the asset frame)."""
+    view = np.array([0.0, 1.0])
+    normal = np.array([np.sin(np.radians(VIEW_DEG)), np.cos(np.radians(VIEW_DEG))])
+    along = np.array([normal[1], -normal[0]])
+    corners = [s * 0.5 * width * along + t * 0.5 * depth * view for s in (-1, 1) for t in (-1, 1)]
+    pts = np.array([[x, y, z] for x, y in corners for z in (-0.5 * height, 0.5 * height)])
+    hull = trimesh.convex.convex_hull(pts)
+    return np.asarray(hull.vertices), np.asarray(hull.faces, np.int64), np.array([*normal, 0.0])
+
+
+def panel_on_wall(gap: float, yaw_error_deg: float = 3.0):
+    """The panel registered facing into a 4 x 5 m room from wall y = 0, its panel face ``gap`` m off the wall
+    (centre plane of the seen panel), with a small registration yaw error."""
+    v, f, normal = lifted_panel()
+    # world_from_asset turns the panel normal onto +y (into the room from wall y = 0), then the yaw error
+    yaw = np.arctan2(1.0, 0.0) - np.arctan2(normal[1], normal[0]) + np.radians(yaw_error_deg)
+    pose = translation([2.0, gap, 1.5]) @ rotation_about([0.0, 0.0, yaw], [0.0, 0.0, 0.0])
+    obj = AssemblyObject(InstanceId(1), "TV", v, f, pose)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, 0.95),))
+    return obj, graph, rect_room()
+
+
+def _centre(obj, pose):
+    w = apply(pose, obj.vertices)
+    return 0.5 * (w.min(0) + w.max(0))
+
+
+def test_floating_generated_panel_goes_flat_on_the_wall_without_turning():
+    obj, graph, shell = panel_on_wall(gap=0.45)
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    pose = layout.world_from_asset[obj.instance]
+    _, turned = rigid_change(obj.world_from_asset, pose)
+    assert turned < 5.0  # squared up by the small yaw error only, never 90 / 180 deg or the 40 deg view offset
+    # the panel's faces are now parallel to the wall: its face normal is +-y within a degree
+    v, f, normal = lifted_panel()
+    n = pose[:3, :3] @ normal / np.linalg.norm(pose[:3, :3] @ normal)
+    assert abs(abs(n[1]) - 1.0) < 1e-3
+    gap = float(apply(pose, obj.vertices)[:, 1].min())
+    assert abs(gap) < 0.02  # coplanar (within the contact tolerance), not pushed into the room or the wall
+    moved = np.linalg.norm(_centre(obj, pose) - _centre(obj, obj.world_from_asset))
+    before_gap = float(obj.world_vertices()[:, 1].min())
+    assert moved < before_gap + 0.05  # it moved by about its gap, not across the room
+
+
+def test_generated_panel_whose_completion_crosses_the_wall_stays_where_it_was_seen():
+    # the seen panel is 2 cm in front of the wall; the completed prism reaches ~0.25 m into the wall
+    obj, graph, shell = panel_on_wall(gap=0.02)
+    assert obj.world_vertices()[:, 1].min() < -0.15
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    pose = layout.world_from_asset[obj.instance]
+    moved, turned = rigid_change(obj.world_from_asset, pose)
+    shift = np.linalg.norm(_centre(obj, pose) - _centre(obj, obj.world_from_asset))
+    assert turned < 5.0
+    assert shift < 0.05  # an exact-shape solver would push it ~0.25 m into the room
+
+
+def test_exact_shape_through_the_wall_is_still_pushed_out():
+    obj, graph, shell = panel_on_wall(gap=0.02)
+    from dataclasses import replace
+
+    exact = replace(obj, exact_shape=True)
+    layout = attach({exact.instance: exact}, graph, shell, AttachmentConfig())
+    assert apply(layout.world_from_asset[exact.instance], exact.vertices)[:, 1].min() > -0.02
