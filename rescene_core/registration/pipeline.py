@@ -12,10 +12,15 @@ Steps, each recorded in ``Pose.diagnostics`` (written to ``instances/<id>/pose.j
    * its scale is within ``max_init_scale_ratio`` of the extent ratio (a RANSAC scale far off the
      extent ratio is a wrong match, not a plausible object);
    * the rotation gate ``init_rotation_gate_deg`` (see below).
+   A candidate rejected only by the rotation gate is tried once more turned upright (``upright_snap``:
+   the smallest rotation about the asset's centre that brings its up axis to world up) and must pass
+   every gate itself. The restarts stop early once an accepted candidate reaches
+   ``ransac_early_exit_inlier_ratio``.
    The best accepted candidate by symmetric fitness (mean of target and source inlier ratios; a
    symmetric object gives several candidates that fit equally, and this prefers the one that neither
    leaves target points uncovered nor overshoots them) is the initialisation; with none accepted the
-   normalisation pose is.
+   normalisation pose is. With several accepted candidates each first gets a short probe refinement
+   (``probe_iterations``) and the best probe is refined fully from its own starting pose.
 4. Bounded Sim(3) ICP from the initialisation (``bounded_icp``).
 5. Result gate against the pre-refinement pose: no RMSE worsening, inlier drop <= tolerance, scale
    within [s_min, s_max] of the initial scale, refinement rotation <= theta_tot, and the result
