@@ -1,5 +1,6 @@
 """Scene export: ``scene/scene.glb`` (one named node per object plus the room shell), ``scene/scene.json``
-(poses, graph, shell, missing instances) and one mesh per object under ``scene/objects/``.
+(poses, graph, shell, missing instances), one mesh per object under ``scene/objects/`` and surface samples of
+the placed objects in ``scene/points.zarr`` (rescene_core/export/points.py).
 
 docs/run-directory.md describes the files. Frames: world metres, z up; object meshes are stored in their
 asset frame and placed by ``world_from_asset`` (a Sim(3), float64 [4, 4]).
@@ -18,7 +19,7 @@ import trimesh
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
-from rescene_core.io import hash_file, write_bytes_atomic
+from rescene_core.io import hash_file, hash_tree, write_bytes_atomic
 from rescene_core.records import Missing, RoomShell, SceneGraph
 
 SCENE_FORMAT = "rescene-scene"
@@ -36,6 +37,12 @@ class ExportConfig(BaseModel):
     """Thickness of the exported wall slabs, extruded outwards from the wall plane (m)."""
     floor_thickness: float = 0.02
     """Thickness of the exported floor slab, extruded downwards from the floor plane (m)."""
+    points_per_m2: float = 4000.0
+    """Surface samples per square metre of placed mesh in ``scene/points.zarr``."""
+    min_points_per_object: int = 200
+    """Fewest samples of one object in ``scene/points.zarr``."""
+    max_points_per_object: int = 20000
+    """Most samples of one object in ``scene/points.zarr``."""
 
 
 @dataclass(frozen=True)
@@ -169,4 +176,8 @@ def export_scene(
     }
     write_bytes_atomic(out_dir / "scene.json", json.dumps(doc, indent=2).encode())
     hashes["scene.json"] = hash_file(out_dir / "scene.json")
+    from rescene_core.export.points import write_scene_points  # imports this module
+
+    write_scene_points(out_dir / "points.zarr", list(objects), config)
+    hashes["points.zarr"] = hash_tree(out_dir / "points.zarr")
     return hashes

@@ -35,7 +35,13 @@ def test_export_scene(tmp_path):
     )
     missing = [Missing(InstanceId(9), "registration", "gates rejected")]
     hashes = export_scene(tmp_path, objs, SHELL, graph, missing, ExportConfig(), extra={"scene_id": "t"})
-    assert set(hashes) == {"scene.glb", "scene.json", "objects/obj_3_night_stand.glb", "objects/obj_5_lamp.glb"}
+    assert set(hashes) == {
+        "scene.glb",
+        "scene.json",
+        "points.zarr",
+        "objects/obj_3_night_stand.glb",
+        "objects/obj_5_lamp.glb",
+    }
 
     scene = trimesh.load(tmp_path / "scene.glb", force="scene")
     nodes = set(scene.graph.nodes_geometry)
