@@ -142,7 +142,36 @@ class AssetConfig(_Section):
     lift_mask_erosion: int = 1
     """lift: mask erosion (pixels) before lifting, to drop mixed depths at the silhouette."""
     lift_mirror: bool = True
-    """lift: complete the unseen back by mirroring about the vertical plane across the view direction."""
+    """lift: complete the unseen back (mirror image of the visible surface, or a slab for flat objects)."""
+    lift_normal_neighbours: int = 40
+    """lift: nearest points per normal estimate (Open3D) for the dominant-face vote."""
+    lift_min_incidence_cos: float = 0.5
+    """lift: floor of |cos| between normal and viewing ray in a pixel's surface-area weight."""
+    lift_min_axis_strength: float = 0.2
+    """lift: agreement (0-1) of the visible vertical faces on one rectangular orientation below which the
+    mirror normal is the horizontal direction towards the camera instead (round objects)."""
+    lift_extent_percentile: float = 1.0
+    """lift: robust extents of the visible points use this percentile and 100 minus it."""
+    lift_depth_visible_factor: float = 1.0
+    """lift: completed depth along the mirror normal = this x the visible depth extent (1: the mirror
+    plane halves the visible extent; 2: it lies at the farthest visible point)."""
+    lift_max_depth_ratio: float = 1.0
+    """lift: completed depth at most this x the visible width across the mirror normal (never below the
+    visible depth)."""
+    lift_noise_erosion: int = 3
+    """lift: mask erosion (pixels) of the region whose depth noise is measured (MAD about a 5x5 median)."""
+    lift_flat_inlier_fraction: float = 0.8
+    """lift: fraction of the visible points the flatness plane is fitted to (trimmed PCA)."""
+    lift_flat_noise_factor: float = 2.0
+    """lift: visible points are flat when 90 % lie within this x the depth noise of one plane..."""
+    lift_flat_min_tolerance: float = 0.02
+    """lift: ...or within this fraction of the plane's in-plane extent (noise-free depth)."""
+    lift_flat_max_tilt_deg: float = 30.0
+    """lift: a flat object's plane normal must lie within this angle (deg) of horizontal (upright panels)."""
+    lift_slab_fraction: float = 0.04
+    """lift: a flat object's slab thickness as a fraction of its outline's longest side."""
+    lift_slab_min_m: float = 0.03
+    """lift: smallest slab thickness (m) of a flat object."""
 
 
 class RegistrationConfig(_Section):

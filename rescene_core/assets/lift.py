@@ -1,25 +1,35 @@
 """The weight-free ``lift`` backend: one view's masked depth, completed by symmetry, closed into a solid.
 
 1. The mask (eroded by ``lift_mask_erosion`` pixels to drop mixed edge depths) and valid depth pixels
-   are back-projected with the view's camera into the world.
-2. Generator frame (random-free, view-dependent, as a single-view generator's is its own): origin at
-   the centroid of the lifted points, z = world up, y = the horizontal direction from the object to
-   the camera, x = y cross z. The object's yaw in this frame depends on the chosen view, so
-   registration has to recover it.
-3. Completion by the object's likely symmetry: the points are mirrored about the vertical plane
-   through their centroid perpendicular to the horizontal view direction (y -> 2 mean(y) - y), which
-   puts a back behind the seen front.
-4. Silhouette fill: on a grid of ``lift_resolution`` cells along the longest side, each (x, z) column
+   are back-projected with the view's camera into the world; the depth noise inside the mask is
+   measured from the same view (``depth_noise``).
+2. Shape cues from the visible points alone (``analyse_shape``): a near-planar upright surface (a
+   picture, TV, mirror, clock: a trimmed plane fit holds 90 % of the points within twice the depth
+   noise) is flat; otherwise the Open3D normals of the vertical faces vote, area-weighted, for the
+   object's rectangular orientation, and the face direction that faces the camera most is the mirror
+   normal (round or unclear objects: the horizontal direction towards the camera).
+3. Generator frame (random-free, view-dependent, as a single-view generator's is its own): origin at
+   the centroid of the lifted points, z = world up, y = the mirror normal, x = y cross z. The object's
+   yaw in this frame depends on the chosen view, so registration has to recover it.
+4. Completion: a flat object becomes a thin slab behind its visible plane (its convex outline extruded
+   by ``lift_slab_fraction`` of its size, at least ``lift_slab_min_m``). Any other object is mirrored
+   about the vertical plane across y that makes its completed depth ``lift_depth_visible_factor``
+   times the visible depth extent (1: the plane halves the visible extent, so a box seen from above
+   or obliquely gets its true depth), at most ``lift_max_depth_ratio`` times its visible width.
+5. Silhouette fill: on a grid of ``lift_resolution`` cells along the longest side, each (x, z) column
    is filled between the smallest and largest y of the points in it (the solid the front and the
    mirrored back enclose), then closed morphologically and meshed by marching cubes: watertight.
 
 What it cannot see it cannot make: a close-up crop (mask touching the image border), a grazing view
 or few depth pixels give a partial, worse asset, as a single-view generator's quality depends on its
-view. Its metadata records the mask size, whether the mask touches the border, and the lifted count.
+view; an object seen only from its flat front (nothing reveals its depth) comes out too shallow. Its
+metadata records the mask size, whether the mask touches the border, the lifted count, the depth noise,
+the shape cues and the completion used.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -29,6 +39,7 @@ from scipy import ndimage
 from rescene_core.assets.base import GenerationFailed, GeneratorInput, GeneratorOutput
 from rescene_core.config import AssetConfig
 from rescene_core.geometry import sim3
+from rescene_core.records import Camera
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -52,16 +63,191 @@ def lift_points(view: GeneratorInput, erosion: int) -> NDArray[np.float64]:
     return sim3.apply(view.camera.world_from_cam, cam)
 
 
-def generator_frame(points: NDArray[np.float64], camera_centre: NDArray[np.float64]) -> sim3.Matrix4:
-    """world_from_generator: origin at the centroid, z up, y horizontally towards the camera."""
-    centre = points.mean(axis=0)
-    to_cam = camera_centre - centre
+@dataclass(frozen=True)
+class ShapeCues:
+    """What the visible points say about the object's shape (world frame).
+
+    facing: unit horizontal [3] normal of the dominant camera-facing vertical face (the mirror normal),
+    or the horizontal direction towards the camera when no face dominates. axis_strength: how strongly
+    the visible vertical faces agree on one rectangular (90-degree periodic) orientation, in [0, 1].
+    flat: the visible points lie near one upright plane (a picture, TV, mirror, clock). planarity: the
+    the plane fit's 90 % residual over its flatness tolerance (<= 1: flat). method: 'faces', 'plane' or 'view'.
+    """
+
+    facing: NDArray[np.float64]
+    axis_strength: float
+    flat: bool
+    planarity: float
+    method: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "facing": [float(v) for v in self.facing],
+            "axis_strength": float(self.axis_strength),
+            "flat": bool(self.flat),
+            "planarity": float(self.planarity),
+            "method": self.method,
+        }
+
+
+def _horizontal_towards(points: NDArray[np.float64], camera_centre: NDArray[np.float64]) -> NDArray[np.float64]:
+    to_cam = np.asarray(camera_centre, np.float64) - points.mean(axis=0)
     to_cam[2] = 0.0
     norm = float(np.linalg.norm(to_cam))
-    y = to_cam / norm if norm > 1e-9 else np.array([0.0, 1.0, 0.0])
+    return to_cam / norm if norm > 1e-9 else np.array([0.0, 1.0, 0.0])
+
+
+def depth_noise(view: GeneratorInput, erosion: int) -> float:
+    """Robust depth noise (m) inside the mask: 1.4826 MAD of the depth minus its 5x5 median, on the mask
+    eroded by ``erosion`` pixels (surfaces are smooth at that scale; silhouettes are excluded)."""
+    if view.depth is None:
+        return 0.0
+    mask = np.asarray(view.mask, bool)
+    rows, cols = np.nonzero(mask)
+    if len(rows) == 0:
+        return 0.0
+    r0, r1 = max(rows.min() - 3, 0), rows.max() + 4
+    c0, c1 = max(cols.min() - 3, 0), cols.max() + 4
+    depth = np.asarray(view.depth, np.float64)[r0:r1, c0:c1]
+    inner = ndimage.binary_erosion(mask[r0:r1, c0:c1], iterations=erosion) & np.isfinite(depth) & (depth > 0)
+    if inner.sum() < 10:
+        return 0.0
+    diff = (depth - ndimage.median_filter(depth, size=5))[inner]
+    return float(1.4826 * np.median(np.abs(diff - np.median(diff))))
+
+
+def _trimmed_plane(points: NDArray[np.float64], keep: float, rounds: int = 3):
+    """Plane (centre [3], unit normal [3]) fitted by PCA to the ``keep`` fraction of points closest to
+    it, refitted ``rounds`` times; and the absolute residuals [n] (m) of all points."""
+    inliers = np.ones(len(points), bool)
+    for _ in range(rounds):
+        centre = points[inliers].mean(axis=0)
+        _, vecs = np.linalg.eigh(np.cov((points[inliers] - centre).T))
+        normal = vecs[:, 0]
+        residual = np.abs((points - centre) @ normal)
+        inliers = residual <= np.quantile(residual, keep)
+    return centre, normal, vecs, residual
+
+
+def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg: AssetConfig) -> ShapeCues:
+    """Dominant facing direction and flatness of the visible surface ``points`` [n, 3] (world, m).
+
+    Flat: a plane fitted to the ``lift_flat_inlier_fraction`` closest points holds 90 % of all points
+    within max(``lift_flat_noise_factor`` x ``noise`` (the depth noise, m), ``lift_flat_min_tolerance``
+    x the in-plane extent), and its normal lies within ``lift_flat_max_tilt_deg`` of horizontal (upright
+    panels: pictures, TVs, mirrors, clocks). Otherwise the normals (Open3D, ``lift_normal_neighbours``
+    nearest points, oriented to the camera) vote, weighted by the surface area each pixel covers
+    (depth^2 / f^2 / |cos incidence|, the cosine floored at ``lift_min_incidence_cos``) times the
+    normal's squared horizontal length, for one orientation modulo 90 degrees (rectangular furniture);
+    the facing direction is the one of the four that collects the most facing area. Below
+    ``lift_min_axis_strength`` agreement the direction towards the camera is used (round objects).
+    """
+    import open3d as o3d
+
+    towards = _horizontal_towards(points, camera.center)
+    centre, normal, axes, residual = _trimmed_plane(points, cfg.lift_flat_inlier_fraction)
+    in_plane = (points - centre) @ axes[:, 1:]
+    extent = float(np.ptp(in_plane, axis=0).max())
+    spread = float(np.quantile(residual, 0.9))
+    tolerance = max(cfg.lift_flat_noise_factor * noise, cfg.lift_flat_min_tolerance * extent)
+    planarity = spread / tolerance if tolerance > 0 else float("inf")
+    tilt = float(np.degrees(np.arcsin(min(1.0, abs(float(normal[2]))))))
+    if planarity <= 1.0 and tilt <= cfg.lift_flat_max_tilt_deg:
+        facing = normal.copy()
+        facing[2] = 0.0
+        facing /= np.linalg.norm(facing)
+        if facing @ towards < 0:
+            facing = -facing
+        return ShapeCues(facing, 1.0, True, planarity, "plane")
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(int(cfg.lift_normal_neighbours)))
+    cloud.orient_normals_towards_camera_location(np.asarray(camera.center, np.float64))
+    normals = np.asarray(cloud.normals)
+    rays = points - np.asarray(camera.center, np.float64)
+    dist = np.linalg.norm(rays, axis=1)
+    incidence = np.abs(np.einsum("ij,ij->i", normals, rays)) / np.maximum(dist, 1e-9)
+    cam_z = sim3.apply(sim3.inverse(camera.world_from_cam), points)[:, 2]
+    focal = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1]))
+    area = (cam_z / focal) ** 2 / np.maximum(incidence, cfg.lift_min_incidence_cos)
+    horizontal = np.linalg.norm(normals[:, :2], axis=1)
+    weight = area * horizontal**2
+    angle = np.arctan2(normals[:, 1], normals[:, 0])
+    vote = np.sum(weight * np.exp(4j * angle))
+    total = float(weight.sum())
+    strength = float(abs(vote) / total) if total > 0 else 0.0
+    if strength < cfg.lift_min_axis_strength:
+        return ShapeCues(towards, strength, False, planarity, "view")
+    base = float(np.angle(vote)) / 4.0
+    candidates = base + 0.5 * np.pi * np.arange(4)
+    dirs = np.stack([np.cos(candidates), np.sin(candidates), np.zeros(4)], axis=1)
+    facing_area = (weight[:, None] * np.maximum(normals[:, :2] @ dirs[:, :2].T, 0.0)).sum(axis=0)
+    return ShapeCues(dirs[int(np.argmax(facing_area))], strength, False, planarity, "faces")
+
+
+def generator_frame(
+    points: NDArray[np.float64], camera_centre: NDArray[np.float64], facing: NDArray[np.float64] | None = None
+) -> sim3.Matrix4:
+    """world_from_generator: origin at the centroid, z up, y = ``facing`` (a horizontal unit vector: the
+    object's dominant camera-facing normal) or, when None, horizontally towards the camera."""
+    centre = points.mean(axis=0)
+    y = _horizontal_towards(points, camera_centre) if facing is None else np.asarray(facing, np.float64)
     x = np.cross(y, UP)
     rot = np.stack([x, y, UP], axis=1)
     return sim3.sim3_from_parts(1.0, rot, centre)
+
+
+def complete_by_mirror(local: NDArray[np.float64], cfg: AssetConfig) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """The visible points [n, 3] (generator frame: y = the facing normal) and their mirror image.
+
+    The mirror plane y = p is placed so that the completed depth along y is
+    D = ``lift_depth_visible_factor`` x the visible depth extent, bounded by ``lift_max_depth_ratio``
+    x the visible width along x (objects are rarely much deeper than wide) and never below the visible
+    depth: p = y_front - D / 2. Extents are robust (``lift_extent_percentile`` to 100 minus it).
+    """
+    q = cfg.lift_extent_percentile
+    (x_lo, y_lo), (x_hi, y_hi) = np.percentile(local[:, :2], [q, 100.0 - q], axis=0)
+    visible_depth = float(y_hi - y_lo)
+    width = float(x_hi - x_lo)
+    depth = min(cfg.lift_depth_visible_factor * visible_depth, cfg.lift_max_depth_ratio * width)
+    depth = max(depth, visible_depth)
+    plane = float(y_hi) - 0.5 * depth
+    mirrored = local.copy()
+    mirrored[:, 1] = 2.0 * plane - local[:, 1]
+    info = {
+        "kind": "mirror",
+        "plane_y": plane,
+        "visible_depth_m": visible_depth,
+        "visible_width_m": width,
+        "depth_m": depth,
+    }
+    return np.concatenate([local, mirrored]), info
+
+
+def flat_slab(
+    local: NDArray[np.float64], cfg: AssetConfig
+) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
+    """A thin upright slab for near-planar objects: the convex outline of the points [n, 3] (generator
+    frame, y = the plane normal towards the camera) in the x-z plane, extruded backwards from the
+    visible plane by T = max(``lift_slab_min_m``, ``lift_slab_fraction`` x the outline's longest side).
+    Returns vertices [v, 3], faces [f, 3] (watertight) and the completion record."""
+    import trimesh
+    from shapely.geometry import MultiPoint
+
+    outline = MultiPoint(local[:, [0, 2]]).convex_hull
+    if outline.geom_type != "Polygon" or outline.area <= 0:
+        raise GenerationFailed("the flat object's outline is degenerate")
+    outline = outline.simplify(0.002 * float(np.sqrt(outline.area)))
+    minx, minz, maxx, maxz = outline.bounds
+    extent = float(max(maxx - minx, maxz - minz))
+    thickness = max(cfg.lift_slab_min_m, cfg.lift_slab_fraction * extent)
+    front = float(np.median(local[:, 1]))
+    slab = trimesh.creation.extrude_polygon(outline, thickness)
+    # extrusion frame (u, v, w) -> generator (x = u, y = front - w, z = v): a proper rotation
+    vertices = np.asarray(slab.vertices)
+    vertices = np.stack([vertices[:, 0], front - vertices[:, 2], vertices[:, 1]], axis=1)
+    info = {"kind": "flat_slab", "thickness_m": thickness, "extent_m": extent, "plane_y": front}
+    return vertices, np.asarray(slab.faces, dtype=np.int64), info
 
 
 def _remove_outliers(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -139,13 +325,17 @@ class LiftBackend:
         if len(world) < cfg.lift_min_pixels:
             raise GenerationFailed(f"only {len(world)} masked pixels have valid depth (< {cfg.lift_min_pixels})")
         world = _remove_outliers(world)
-        world_from_generator = generator_frame(world, view.camera.center)
+        noise = depth_noise(view, cfg.lift_noise_erosion)
+        shape = analyse_shape(world, view.camera, noise, cfg)
+        world_from_generator = generator_frame(world, view.camera.center, shape.facing)
         local = sim3.apply(sim3.inverse(world_from_generator), world)
-        mirrored = local.copy()
-        mirrored[:, 1] = 2.0 * local[:, 1].mean() - local[:, 1]
-        completed = np.concatenate([local, mirrored]) if cfg.lift_mirror else local
-        vertices, faces = solid_from_points(completed, cfg.lift_resolution)
-        vertices, faces = _decimate(vertices, faces, cfg.target_faces)
+        completion: dict[str, Any]
+        if shape.flat and cfg.lift_mirror:
+            vertices, faces, completion = flat_slab(local, cfg)
+        else:
+            completed, completion = complete_by_mirror(local, cfg) if cfg.lift_mirror else (local, {"kind": "none"})
+            vertices, faces = solid_from_points(completed, cfg.lift_resolution)
+            vertices, faces = _decimate(vertices, faces, cfg.target_faces)
         mask = np.asarray(view.mask, bool)
         touches = bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())
         metadata: dict[str, Any] = {
@@ -155,6 +345,9 @@ class LiftBackend:
             "lifted_points": int(len(world)),
             "mask_touches_border": touches,
             "mirror_completion": bool(cfg.lift_mirror),
+            "completion": completion,
+            "shape": shape.to_json(),
+            "depth_noise_m": noise,
             "resolution": int(cfg.lift_resolution),
             "weights": "none (geometric backend)",
             # the canonicalisation this backend used; kept for inspection, not handed to registration

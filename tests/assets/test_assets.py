@@ -171,3 +171,64 @@ def test_sam3d_backend_names_what_is_missing(tmp_path):
     (tmp_path / "pipeline.yaml").write_text("{}\n")
     with pytest.raises(BackendUnavailable, match="SAM 3D Objects installed"):
         Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path)))
+
+
+def _upright_extents(asset: Asset) -> tuple[float, float, float]:
+    """(width, depth, height) in metres of the asset in its generator frame: the sides of the minimum-area
+    rectangle around its footprint (longer, shorter) and its height (yaw-independent)."""
+    from shapely.geometry import MultiPoint
+
+    local = sim3.apply(sim3.inverse(asset.asset_from_generator), asset.vertices)
+    rect = np.asarray(MultiPoint(local[:, :2]).convex_hull.minimum_rotated_rectangle.exterior.coords)[:4]
+    sides = sorted([float(np.linalg.norm(rect[1] - rect[0])), float(np.linalg.norm(rect[2] - rect[1]))])
+    return sides[1], sides[0], float(np.ptp(local[:, 2]))
+
+
+def _posed_box(size, yaw_deg, centre):
+    box = trimesh.creation.box(size)
+    rotation = trimesh.transformations.rotation_matrix(np.radians(yaw_deg), [0, 0, 1])
+    box.apply_transform(rotation)
+    box.apply_translation(centre)
+    return box
+
+
+def _noisy(view: GeneratorInput, sigma: float, seed: int = 0) -> GeneratorInput:
+    rng = np.random.default_rng(seed)
+    depth = view.depth + np.where(view.depth > 0, rng.normal(0.0, sigma, view.depth.shape), 0.0)
+    return GeneratorInput(
+        view.instance, view.label, view.frame, view.rgb, view.mask, view.camera, depth.astype(np.float32)
+    )
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.01])
+def test_lift_oblique_thin_panel_gives_a_thin_slab(sigma):
+    # a TV-like panel 1.0 x 0.05 x 0.6 m on a wall, seen 50 degrees off its normal from above
+    panel = _posed_box((1.0, 0.05, 0.6), 0.0, (0.0, 0.0, 1.2))
+    eye = np.array([2.0 * np.sin(np.radians(50)), 2.0 * np.cos(np.radians(50)), 1.8])
+    view = _noisy(render_view(panel, look_at_camera(eye, np.array([0.0, 0.0, 1.2]))), sigma)
+    asset = finish_asset(InstanceId(5), "lift", LiftBackend(CONFIG).generate(view))
+    width, depth, height = _upright_extents(asset)
+    assert asset.metadata["shape"]["flat"] and asset.metadata["completion"]["kind"] == "flat_slab"
+    assert depth / width < 0.2
+    assert abs(width - 1.0) < 0.15 and abs(height - 0.6) < 0.1
+    # the slab lies behind the visible face (towards the wall), its normal is the panel's
+    facing = np.asarray(asset.metadata["shape"]["facing"])
+    assert abs(float(facing @ [0.0, 1.0, 0.0])) > np.cos(np.radians(5))
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.01])
+def test_lift_box_at_45_degrees_has_a_plausible_depth(sigma):
+    size = (0.8, 0.5, 0.6)
+    box = _posed_box(size, 45.0, (0.0, 0.0, 0.3))
+    eye = np.array([0.0, 2.4, 1.5])  # 45 degrees between the view and both visible faces
+    view = _noisy(render_view(box, look_at_camera(eye, np.array([0.0, 0.0, 0.3]))), sigma)
+    asset = finish_asset(InstanceId(5), "lift", LiftBackend(CONFIG).generate(view))
+    width, depth, height = _upright_extents(asset)
+    truth = size[1] / size[0]
+    assert truth / 1.5 < depth / width < truth * 1.5
+    assert abs(width - size[0]) < 0.15 and abs(height - size[2]) < 0.1
+    # the mirror normal is one of the box's face normals, not the view direction
+    assert asset.metadata["shape"]["method"] == "faces"
+    facing = np.asarray(asset.metadata["shape"]["facing"])
+    yaw = np.degrees(np.arctan2(facing[1], facing[0]))
+    assert abs((yaw - 45.0 + 45.0) % 90.0 - 45.0) < 8.0
