@@ -391,6 +391,14 @@ class AttachmentConfig(_Section):
     """Near-wall snap only moves floor objects with at least this footprint area (m^2, 'large furniture')."""
     containment_tolerance: float = 0.01
     """A footprint this far (m) beyond the floor polygon still counts as inside."""
+    completion_min_excess: float = 0.20
+    """Generated assets: a crossing of a wall or of the floor polygon deeper than this (m), with the object's
+    centre inside, is read as a completion error and left alone; a shallower one is a pose or size error
+    and is repaired like an exact shape's (more than registration centre error plus lift extent error)."""
+    contact_closure_min_confidence: float = 0.60
+    """Edges at least this confident get their contact (floor, support face, wall plane) closed in full
+    after the confidence-scaled update; below it the contact is scaled by omega like the rest (the paper's
+    low-confidence threshold)."""
     bed_labels: tuple[str, ...] = ("bed",)
     """Labels the bed-wall refinement applies to."""
     cabinet_labels: tuple[str, ...] = ("cabinet", "wardrobe", "dresser", "bookshelf", "bookcase", "shelf")

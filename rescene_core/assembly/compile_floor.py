@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.assembly.evidence import centre_inside_polygon
+from rescene_core.assembly.evidence import centre_inside_polygon, polygon_excursion
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -84,9 +84,11 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
         moved = apply(correction @ pose, obj.vertices)
         fp = footprint(moved)
         if not obj.exact_shape and not fp.within(room.polygon):
-            # generated asset: only the part inside the room counts while its centre is inside (evidence.py)
+            # generated asset reaching deep beyond the polygon with its centre inside: only the part inside
+            # the room counts (a completion error, evidence.py); a shallow crossing is repaired in full
             centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
-            if centre_inside_polygon(room.polygon, centre):
+            deep = polygon_excursion(room.polygon, fp) > cfg.completion_min_excess
+            if deep and centre_inside_polygon(room.polygon, centre):
                 core = fp.intersection(inner)
                 fp = core.convex_hull if not core.is_empty and core.area > 0 else fp
         if not fp.within(room.polygon):

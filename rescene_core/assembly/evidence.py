@@ -6,12 +6,14 @@ not the object's faces, and (b) its unseen side is a completion (a single-view g
 extrudes the seen side), often deeper than the object. Geometry that crosses a wall or leaves the floor
 polygon while the object's bounding-box centre is inside the room cannot have been seen from inside the
 room: it is a completion error, and moving the object by it moves a well-registered object away from
-where it was seen. For such objects:
+where it was seen. Since the `lift` backend stopped over-deepening its completions, most crossings are
+a few centimetres of registration or size error, which the rules must repair; only a crossing deeper than
+``AttachmentConfig.completion_min_excess`` is taken as completion evidence. For such objects:
 
-* ``wall_gap``: the gap to a wall is the smallest distance of the mesh, but penetration counts as contact
-  (gap 0) while the centre is in front of the wall;
+* ``wall_gap``: the gap to a wall is the smallest distance of the mesh, but a penetration deeper than
+  ``completion_min_excess`` counts as contact (gap 0) while the centre is in front of the wall;
 * ``containment_footprint``: containment tests use the footprint clipped to the floor polygon while the
-  centre is inside it;
+  centre is inside it and the footprint reaches more than ``completion_min_excess`` beyond the polygon;
 * ``face_yaw``: the yaw that turns the object square to a direction is read from the mesh's vertical
   faces (area-weighted histogram of their horizontal normals, folded modulo 180 deg), not from the asset
   axes; None when no face direction holds at least ``FACE_YAW_MIN_FRACTION`` of the vertical area.
@@ -22,6 +24,7 @@ Exact shapes keep the full-mesh behaviour (and the asset-axis yaw, their frame b
 from __future__ import annotations
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 
@@ -49,9 +52,21 @@ def trusts_full_extent(state: LayoutState, i: InstanceId) -> bool:
 def wall_gap(state: LayoutState, i: InstanceId, wall: Wall) -> float:
     """Gap (m) between object i and ``wall`` (negative: penetration), read as described above."""
     gap = float(wall.distance(state.vertices(i)).min())
-    if gap < 0.0 and not trusts_full_extent(state, i) and centre_inside_wall(wall, state.centre(i)):
+    if completion_crossing(state, i, -gap) and centre_inside_wall(wall, state.centre(i)):
         return 0.0
     return gap
+
+
+def completion_crossing(state: LayoutState, i: InstanceId, depth: float) -> bool:
+    """Whether a crossing ``depth`` m deep (of a wall or the floor polygon) by object i is read as a
+    completion error: generated assets only, deeper than ``completion_min_excess``."""
+    return not trusts_full_extent(state, i) and depth > state.config.completion_min_excess
+
+
+def polygon_excursion(polygon: Polygon, fp: Polygon) -> float:
+    """How far (m) the footprint ``fp`` reaches beyond ``polygon`` (0 when inside)."""
+    pts = shapely.points(np.asarray(fp.exterior.coords))
+    return float(shapely.distance(polygon, pts).max())
 
 
 def centre_inside_wall(wall: Wall, centre: NDArray) -> bool:
@@ -69,6 +84,8 @@ def containment_footprint(state: LayoutState, i: InstanceId) -> Polygon:
     fp = state.footprint(i)
     poly = state.room.polygon
     if poly is None or trusts_full_extent(state, i) or fp.within(poly):
+        return fp
+    if not completion_crossing(state, i, polygon_excursion(poly, fp)):
         return fp
     if not centre_inside_polygon(poly, state.centre(i)):
         return fp

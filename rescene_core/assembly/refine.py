@@ -20,7 +20,7 @@ import numpy as np
 
 from rescene_core.assembly.compile_floor import inner_polygon
 from rescene_core.assembly.compile_wall import horizontal_axes
-from rescene_core.assembly.evidence import containment_footprint, wall_gap, yaw_to_direction
+from rescene_core.assembly.evidence import completion_crossing, containment_footprint, wall_gap, yaw_to_direction
 from rescene_core.assembly.room import Wall, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import rotation_about, translation
@@ -69,8 +69,8 @@ def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float,
     turn = rotation_about(yaw * room.up, pivot)
     turned = apply(turn @ pose, state.objects[i].vertices)
     new_gap = float(wall.distance(turned).min())
-    if new_gap < 0.0 and gap >= 0.0 and not state.objects[i].exact_shape:
-        new_gap = 0.0  # generated asset: penetration with the centre in front is completion (evidence.py)
+    if gap >= 0.0 and completion_crossing(state, i, -new_gap):
+        new_gap = 0.0  # generated asset: deep penetration with the centre in front is completion (evidence.py)
     # a gap already inside [0, margin] is contact: keep it; otherwise close (or open) it to the margin
     push = float(np.clip(new_gap, 0.0, cfg.wall_collision_margin)) - new_gap
     if abs(push) > max_move:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 
 from rescene_core.assembly import AssemblyObject, attach
@@ -84,3 +85,45 @@ def test_exact_shape_through_the_wall_is_still_pushed_out():
     exact = replace(obj, exact_shape=True)
     layout = attach({exact.instance: exact}, graph, shell, AttachmentConfig())
     assert apply(layout.world_from_asset[exact.instance], exact.vertices)[:, 1].min() > -0.02
+
+
+def _generated_cabinet(y: float, confidence: float = 0.95, lift: float = 0.0):
+    """A generated (not exact) 0.8 x 0.5 x 0.9 m cabinet on the floor of a 4 x 5 m room, its back face at
+    ``y`` (negative: that far through wall 0), floating ``lift`` m."""
+    from rescene_core.assembly.scenes import box_object
+
+    obj = box_object(1, "cabinet", (0.8, 0.5, 0.9), translation([2.0, y + 0.25, lift]), exact_shape=False)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, confidence),))
+    return obj, graph, rect_room()
+
+
+def test_generated_object_slightly_through_the_wall_is_moved_back_inside():
+    # 8 cm through the wall: registration or size error (below completion_min_excess), not completion
+    obj, graph, shell = _generated_cabinet(-0.08)
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    v = apply(layout.world_from_asset[obj.instance], obj.vertices)
+    assert v[:, 1].min() >= -0.01
+    assert v[:, 1].min() < 0.05  # moved out by about the crossing, not across the room
+
+
+def test_generated_object_deep_through_the_wall_with_centre_inside_is_left():
+    # 0.24 m through (centre 1 cm inside): deeper than completion_min_excess, read as completion
+    obj, graph, shell = _generated_cabinet(-0.24)
+    assert AttachmentConfig().completion_min_excess < 0.24
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    shift = np.linalg.norm(_centre(obj, layout.world_from_asset[obj.instance]) - _centre(obj, obj.world_from_asset))
+    assert shift < 0.05
+
+
+def test_confident_edge_closes_its_floor_contact():
+    obj, graph, shell = _generated_cabinet(0.5, confidence=0.8, lift=0.3)
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig(stop_after="relations"))
+    assert apply(layout.world_from_asset[obj.instance], obj.vertices)[:, 2].min() == pytest.approx(0.0, abs=1e-9)
+    op = next(o for o in layout.operations if o["stage"] == "floor snap")
+    assert op["omega"] == 0.8 and op["contact_closed_m"] == pytest.approx(-0.3 * 0.2, abs=1e-9)
+
+
+def test_low_confidence_edge_is_scaled_not_closed():
+    obj, graph, shell = _generated_cabinet(0.5, confidence=0.5, lift=0.3)
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig(stop_after="relations"))
+    assert apply(layout.world_from_asset[obj.instance], obj.vertices)[:, 2].min() == pytest.approx(0.15, abs=1e-9)
