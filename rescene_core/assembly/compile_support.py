@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 from numpy.typing import NDArray
-from shapely.geometry import Polygon
+from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
 from rescene_core.assembly.objects import footprint
@@ -77,6 +77,23 @@ def support_levels(state: LayoutState, parent: InstanceId) -> list[SupportLevel]
     )
 
 
+def seen_centre_shift(state: LayoutState, child: InstanceId, moved: NDArray, face: Polygon) -> NDArray[np.float64]:
+    """Horizontal step (dx, dy) (m) putting the bounding-box centre of ``moved`` (the child's world vertices
+    [v, 3] at its inherited, levelled pose) back over where it was registered, or over the point of the
+    support ``face`` nearest to that when the registered centre is not over the face.
+
+    A generated child was registered on its own points, so its registered horizontal position is evidence;
+    the move it inherits from its parent's correction (a parent levelled or yawed about its own centre swings
+    a child standing near an edge by several centimetres) is not."""
+    seen = state.objects[child].world_vertices()
+    seen_c = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+    now_c = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
+    target = Point(seen_c[0], seen_c[1])
+    if not face.contains(target):
+        target = nearest_points(face, target)[0]
+    return np.array([target.x - now_c[0], target.y - now_c[1]])
+
+
 def compile_support(
     state: LayoutState, child: InstanceId, edge: Edge
 ) -> tuple[NDArray[np.float64] | None, dict[str, Any]]:
@@ -100,8 +117,11 @@ def compile_support(
     if obj.exact_shape:
         shift = fit_translation(fp, level.polygon)
         how = "footprint on face"
-    else:  # generated asset: only its centre is evidence of where it stands (rescene_core.assembly.evidence)
-        shift, how = None, "centre on face (generated asset)"
+    else:  # generated asset: its registered centre is the evidence of where it stands (evidence.py)
+        shift, how = (
+            seen_centre_shift(state, child, moved, level.polygon),
+            "registered centre on face (generated asset)",
+        )
     if shift is None:
         centroid = fp.centroid
         target = centroid if level.polygon.contains(centroid) else nearest_points(level.polygon, centroid)[0]

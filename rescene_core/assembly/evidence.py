@@ -28,6 +28,7 @@ import shapely
 from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 
+from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import horizontal, nearest_axis, signed_yaw
@@ -52,15 +53,19 @@ def trusts_full_extent(state: LayoutState, i: InstanceId) -> bool:
 def wall_gap(state: LayoutState, i: InstanceId, wall: Wall) -> float:
     """Gap (m) between object i and ``wall`` (negative: penetration), read as described above."""
     gap = float(wall.distance(state.vertices(i)).min())
-    if completion_crossing(state, i, -gap) and centre_inside_wall(wall, state.centre(i)):
-        return 0.0
-    return gap
+    if gap >= 0.0 or not centre_inside_wall(wall, state.centre(i)):
+        return gap
+    registered = -float(wall.distance(state.objects[i].world_vertices()).min())
+    return 0.0 if completion_crossing(state, i, -gap, registered) else gap
 
 
-def completion_crossing(state: LayoutState, i: InstanceId, depth: float) -> bool:
+def completion_crossing(state: LayoutState, i: InstanceId, depth: float, registered_depth: float) -> bool:
     """Whether a crossing ``depth`` m deep (of a wall or the floor polygon) by object i is read as a
-    completion error: generated assets only, deeper than ``completion_min_excess``."""
-    return not trusts_full_extent(state, i) and depth > state.config.completion_min_excess
+    completion error: generated assets only, deeper than ``completion_min_excess`` both now and at the
+    registered pose (``registered_depth``, the same boundary): the evidence is the asset as registered,
+    so a crossing the solver's own moves made (a depenetration push) is always repaired."""
+    excess = state.config.completion_min_excess
+    return not trusts_full_extent(state, i) and depth > excess and registered_depth > excess
 
 
 def polygon_excursion(polygon: Polygon, fp: Polygon) -> float:
@@ -85,7 +90,8 @@ def containment_footprint(state: LayoutState, i: InstanceId) -> Polygon:
     poly = state.room.polygon
     if poly is None or trusts_full_extent(state, i) or fp.within(poly):
         return fp
-    if not completion_crossing(state, i, polygon_excursion(poly, fp)):
+    registered = polygon_excursion(poly, footprint(state.objects[i].world_vertices()))
+    if not completion_crossing(state, i, polygon_excursion(poly, fp), registered):
         return fp
     if not centre_inside_polygon(poly, state.centre(i)):
         return fp

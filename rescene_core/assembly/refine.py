@@ -69,7 +69,8 @@ def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float,
     turn = rotation_about(yaw * room.up, pivot)
     turned = apply(turn @ pose, state.objects[i].vertices)
     new_gap = float(wall.distance(turned).min())
-    if gap >= 0.0 and completion_crossing(state, i, -new_gap):
+    registered = -float(wall.distance(state.objects[i].world_vertices()).min())
+    if gap >= 0.0 and completion_crossing(state, i, -new_gap, registered):
         new_gap = 0.0  # generated asset: deep penetration with the centre in front is completion (evidence.py)
     # a gap already inside [0, margin] is contact: keep it; otherwise close (or open) it to the margin
     push = float(np.clip(new_gap, 0.0, cfg.wall_collision_margin)) - new_gap
@@ -189,3 +190,23 @@ def find_unfit(state: LayoutState) -> frozenset[InstanceId]:
         if region is not None and fit_translation(state.footprint(i), region) is None:
             out.add(i)
     return frozenset(out)
+
+
+def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None:
+    """Put generated children resting on objects back on their parents' support faces after the repairs.
+
+    A repair that turns or moves a parent takes its children along (a dining table squared to a wall by
+    19 deg swings a monitor near its edge by ~0.4 m), but a generated child was registered on its own
+    points: ``compile_support`` puts it back over its registered centre (or the nearest point of the face)
+    at the face's height. Exact shapes keep where their parents took them. Parents before children."""
+    from rescene_core.assembly.compile_support import compile_support
+
+    for child, edge in state.forest.edges.items():
+        if isinstance(edge.parent, Root) or edge.relation is not Relation.RESTS_ON:
+            continue
+        if state.objects[child].exact_shape or child in state.unfit:
+            continue
+        correction, info = compile_support(state, child, edge)
+        if correction is None or np.allclose(correction, np.eye(4), atol=1e-6):
+            continue
+        state.move(child, correction, stage, "back on parent's face", parent=int(edge.parent))

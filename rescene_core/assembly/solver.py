@@ -2,7 +2,7 @@
 
 Stages, in order: relational layer (floor snap, wall resolution, wall attachment and object support, all
 by propagation in topological order), room/wall repair (near-wall snap, outside repair, bed-wall,
-cabinet corner), then depenetration and a last containment check. ``AttachmentConfig.stop_after`` ends
+cabinet corner, then generated children re-seated on their parents' faces), then depenetration and a last containment check. ``AttachmentConfig.stop_after`` ends
 the run after 'relations' or 'repair' (the ablation of the paper's Table 3(c)).
 
 Dual attachment (``dual_attachment``): the wall-aware branch uses every edge and the wall refinements;
@@ -33,6 +33,7 @@ from rescene_core.assembly.refine import (
     is_outside,
     near_wall_snap,
     outside_repair,
+    reseat_children,
 )
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
@@ -54,6 +55,7 @@ def run_branch(state: LayoutState, world: CollisionWorld, use_walls: bool) -> La
         bed_wall(state)
     if walls_ok and cfg.cabinet_corner:
         cabinet_corner(state)
+    reseat_children(state)
     if cfg.stop_after == "repair":
         return state
     depenetrate(state, world)

@@ -127,3 +127,65 @@ def test_low_confidence_edge_is_scaled_not_closed():
     obj, graph, shell = _generated_cabinet(0.5, confidence=0.5, lift=0.3)
     layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig(stop_after="relations"))
     assert apply(layout.world_from_asset[obj.instance], obj.vertices)[:, 2].min() == pytest.approx(0.15, abs=1e-9)
+
+
+def test_solver_push_through_the_wall_is_repaired_even_for_generated_assets():
+    # registered well inside; a move of the solver's own that puts it 0.24 m through the wall is not evidence
+    from rescene_core.assembly.graph import build_forest
+    from rescene_core.assembly.refine import is_outside
+    from rescene_core.assembly.room import room_from_shell
+    from rescene_core.assembly.state import LayoutState
+
+    obj, graph, shell = _generated_cabinet(0.3)
+    state = LayoutState(
+        {obj.instance: obj}, build_forest(graph, {obj.instance}), room_from_shell(shell), AttachmentConfig()
+    )
+    assert not is_outside(state, obj.instance)
+    state.move(obj.instance, translation([0.0, -0.54, 0.0]), "test", "push")
+    assert state.vertices(obj.instance)[:, 1].min() < -0.2 and state.centre(obj.instance)[1] > 0.0
+    assert is_outside(state, obj.instance)
+
+
+def _table_with_lamp(exact: bool):
+    """A 1.6 x 0.8 x 0.75 m table 15 deg off square near wall 0 of a 4 x 5 m room, a lamp near its right
+    end; both registered where they are (generated unless ``exact``)."""
+    from rescene_core.assembly.scenes import box_object
+
+    table_pose = translation([2.0, 0.62, 0.0]) @ rotation_about([0.0, 0.0, np.radians(15.0)], [0.0, 0.0, 0.0])
+    table = box_object(1, "table", (1.6, 0.8, 0.75), table_pose, exact_shape=exact)
+    lamp = box_object(2, "lamp", (0.2, 0.2, 0.4), table_pose @ translation([0.6, 0.0, 0.75]), exact_shape=exact)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.95),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 0.9),
+        )
+    )
+    return {table.instance: table, lamp.instance: lamp}, graph, rect_room()
+
+
+def test_generated_child_stays_where_it_was_seen_when_its_parent_is_squared_to_the_wall():
+    objects, graph, shell = _table_with_lamp(exact=False)
+    layout = attach(objects, graph, shell, AttachmentConfig(stop_after="repair", dual_attachment=False))
+    table, lamp = objects[InstanceId(1)], objects[InstanceId(2)]
+    turned = rigid_change(table.world_from_asset, layout.world_from_asset[InstanceId(1)])[1]
+    assert turned > 10.0  # the near-wall snap squared the table ...
+    seen = _centre(lamp, lamp.world_from_asset)
+    placed = apply(layout.world_from_asset[InstanceId(2)], lamp.vertices)
+    assert (
+        np.linalg.norm(_centre(lamp, layout.world_from_asset[InstanceId(2)])[:2] - seen[:2]) < 0.01
+    )  # ... not the lamp
+    top = apply(layout.world_from_asset[InstanceId(1)], table.vertices)[:, 2].max()
+    assert placed[:, 2].min() == pytest.approx(top, abs=0.01)
+    ops = [o for o in layout.operations if o["instance"] == 2 and o["stage"] == "re-seat children"]
+    assert ops and ops[0]["parent"] == 1
+
+
+def test_exact_child_still_turns_with_its_parent():
+    objects, graph, shell = _table_with_lamp(exact=True)
+    config = AttachmentConfig(stop_after="repair", dual_attachment=False)
+    layout = attach(objects, graph, shell, config)
+    lamp = objects[InstanceId(2)]
+    shift = np.linalg.norm(
+        _centre(lamp, layout.world_from_asset[InstanceId(2)])[:2] - _centre(lamp, lamp.world_from_asset)[:2]
+    )
+    assert shift > 0.05
