@@ -62,8 +62,8 @@ def select_keyframes(run_dir: str, capture: dict[str, Any], config: KeyFrameConf
 def predict_relations(
     run_dir: str, capture: dict[str, Any], shell: dict[str, Any], frame: int, config: SceneGraphConfig
 ) -> dict[str, Any]:
-    """Relation inference on one key frame -> scenegraph/frames/<t>.json."""
-    rel = f"scenegraph/frames/{int(frame):05d}.json"
+    """Relation inference on one key frame -> scenegraph/frames/<t>.json and its ID overlay <t>.png."""
+    rel = f"scenegraph/frames/{int(frame)}.json"
     with executing(run_dir, "relations", frame) as seg:
         cap = open_capture(capture["path"], validate=False)
         predictor = stages.make_predictor(config)
@@ -74,9 +74,8 @@ def predict_relations(
         if getattr(prediction, "status", "ok") == "failed" and transport:
             # the endpoint timed out or was unreachable after its own retries: retry the task with backoff
             raise TransientStageError(f"key frame {frame}: relation endpoint failed: {transport[-1]}")
-        data = prediction.to_json()
-        write_json_atomic(Path(run_dir) / rel, data)
-        seg.log("/scenegraph/frame_predictions", {"frame": int(frame), "prediction": data})
+        stages.write_frame(Path(run_dir) / "scenegraph", cap, prediction, config)
+        seg.log("/scenegraph/frame_predictions", {"frame": int(frame), "prediction": prediction.to_json()})
         return make_ref(run_dir, rel, "frame_prediction", int(frame))
 
 
@@ -97,8 +96,9 @@ def fuse_graph(
         cap = open_capture(capture["path"], validate=False)
         preds = [stages.frame_prediction_from_json(read_json(Path(run_dir) / p["path"])) for p in predictions]
         missing_ids = {int(m["instance"]) for m in missing}
-        graph = stages.fuse(preds, cap, load_shell(run_dir, shell), config, missing_ids)
-        write_json_atomic(Path(run_dir) / "scenegraph/graph.json", graph.to_json())
+        room = load_shell(run_dir, shell)
+        graph, report = stages.fuse_with_report(preds, cap, room, config, missing_ids, stages.make_predictor(config))
+        stages.write_graph(Path(run_dir) / "scenegraph", graph, cap, room, report)
         for edge in graph.edges:
             d = edge.to_json()
             seg.log(

@@ -157,6 +157,24 @@ def fuse(predictions, capture, shell, config, missing):
     return _load("fusion", "rescene_core.scenegraph", "fuse")(predictions, capture, shell, config, missing)
 
 
+def fuse_with_report(predictions, capture, shell, config, missing, predictor):
+    """rescene_core.scenegraph.fuse_with_report(...) -> (SceneGraph, FusionReport); uncertain edges are
+    re-asked with the A/B prompt through ``predictor`` when its backend supports it."""
+    return _load("fusion", "rescene_core.scenegraph", "fuse_with_report")(
+        predictions, capture, shell, config, missing, predictor
+    )
+
+
+def write_frame(out_dir, capture, prediction, config):
+    """rescene_core.scenegraph.write_frame: frames/<t>.json (the prediction) and frames/<t>.png (ID overlay)."""
+    return _load("relations", "rescene_core.scenegraph", "write_frame")(out_dir, capture, prediction, config)
+
+
+def write_graph(out_dir, graph, capture, shell, report):
+    """rescene_core.scenegraph.write_graph: graph.json (edges, labels, report) and graph.png (over the plan)."""
+    return _load("fusion", "rescene_core.scenegraph", "write_graph")(out_dir, graph, capture, shell, report)
+
+
 def assembly_object(instance: int, label: str, vertices, faces, world_from_asset):
     """rescene_core.assembly.AssemblyObject for one registered instance."""
     cls = _load("attachment", "rescene_core.assembly", "AssemblyObject")

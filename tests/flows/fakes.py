@@ -17,6 +17,7 @@ import numpy as np
 import trimesh
 
 from rescene_core.capture import CaptureArrays, points_to_csr, write_capture
+from rescene_core.io import write_json_atomic
 from rescene_core.records import (
     Asset,
     Edge,
@@ -171,6 +172,18 @@ def fuse(predictions, capture, shell, config, missing):
     return SceneGraph(tuple(Edge(InstanceId(i), Relation.RESTS_ON, Root.FLOOR, 0.9) for i in seen))
 
 
+def fuse_with_report(predictions, capture, shell, config, missing, predictor):
+    return fuse(predictions, capture, shell, config, missing), None
+
+
+def write_frame(out_dir, capture, prediction, config):
+    write_json_atomic(Path(out_dir) / "frames" / f"{prediction.frame}.json", prediction.to_json())
+
+
+def write_graph(out_dir, graph, capture, shell, report):
+    return write_json_atomic(Path(out_dir) / "graph.json", graph.to_json())
+
+
 @dataclass(frozen=True)
 class FakeAssemblyObject:
     instance: int
@@ -209,6 +222,9 @@ STAGE_FAKES = {
     "predict_frame": predict_frame,
     "frame_prediction_from_json": frame_prediction_from_json,
     "fuse": fuse,
+    "fuse_with_report": fuse_with_report,
+    "write_frame": write_frame,
+    "write_graph": write_graph,
     "assembly_object": assembly_object,
     "attach": attach,
 }
