@@ -65,6 +65,20 @@ def _prepare(points: NDArray[np.float64], voxel: float, config: RegistrationConf
     return down, feature
 
 
+def feature_correspondences(source_feature, target_feature) -> NDArray[np.int32]:
+    """FPFH matches (source index, target index) int32 [k, 2], once per instance instead of per restart.
+
+    Open3D's own matcher with the mutual filter, as ``registration_ransac_based_on_feature_matching``
+    calls it (``correspondences_from_features``: nearest target feature of every source feature, kept
+    when mutual; all of them when fewer than 10 % of the source points have a mutual match), so the
+    restarts on these matches give the same candidates as feature-matching RANSAC, bit for bit.
+    """
+    import open3d as o3d
+
+    match = o3d.pipelines.registration.correspondences_from_features(source_feature, target_feature, True)
+    return np.asarray(match, dtype=np.int32).reshape(-1, 2)
+
+
 def fpfh_ransac_candidates(
     source: NDArray[np.float64],
     target: NDArray[np.float64],
@@ -76,7 +90,8 @@ def fpfh_ransac_candidates(
     """One world_from_asset candidate per RANSAC restart (restart r uses seed ``config.seed + r``).
 
     ``stop``, when given, sees each valid candidate as soon as its restart ends; returning True skips
-    the remaining restarts (early exit once a candidate is clearly good). The features are computed once.
+    the remaining restarts (early exit once a candidate is clearly good). The features and their mutual
+    matches are computed once and shared by the restarts.
 
     source: float64 [n, 3] asset frame; target: float64 [m, 3] world metres. Invalid candidates
     (not a similarity with positive scale) are dropped here.
@@ -90,18 +105,18 @@ def fpfh_ransac_candidates(
     src_down, src_feat = _prepare(src_n, voxel, config)
     tgt_down, tgt_feat = _prepare(tgt_n, voxel, config)
     distance = config.ransac_distance_voxels * voxel
+    ransac_n = 3
+    corres = o3d.utility.Vector2iVector(feature_correspondences(src_feat, tgt_feat))
     out: list[sim3.Matrix4] = []
     for restart in range(config.ransac_restarts):
         o3d.utility.random.seed(config.seed + restart)
-        result = reg.registration_ransac_based_on_feature_matching(
+        result = reg.registration_ransac_based_on_correspondence(
             src_down,
             tgt_down,
-            src_feat,
-            tgt_feat,
-            True,
+            corres,
             distance,
             reg.TransformationEstimationPointToPoint(True),
-            3,
+            ransac_n,
             [
                 reg.CorrespondenceCheckerBasedOnEdgeLength(config.ransac_edge_length),
                 reg.CorrespondenceCheckerBasedOnDistance(distance),

@@ -292,3 +292,45 @@ def test_only_the_best_probe_gets_the_full_refinement(monkeypatch):
     )
     adds, scale_err = _errors(pose, asset, gt, mesh)
     assert adds < 0.02 and scale_err < 0.02
+
+
+def test_shared_feature_matches_give_the_feature_matching_ransac_candidates():
+    """Matching FPFH once per instance changes no candidate: restarts on the shared matches equal Open3D's
+    feature-matching RANSAC (mutual filter) with the same seeds, bit for bit."""
+    import open3d as o3d
+
+    from rescene_core.registration.init import Normalisation, _prepare, fpfh_ransac_candidates
+
+    reg = o3d.pipelines.registration
+    asset, target, _ = _case(table_mesh(), seed=1, partial=True, scale=0.7)
+    source = register_module._sample_source(asset, CONFIG)
+    tgt = register_module.prepare_target(np.asarray(target.points, np.float64), CONFIG)
+    sn, tn = Normalisation.of(source), Normalisation.of(tgt)
+    config = CONFIG.model_copy(update={"ransac_restarts": 2, "ransac_iterations": 500})
+    shared = fpfh_ransac_candidates(source, tgt, sn, tn, config)
+    src_down, src_feat = _prepare(sim3.apply(sn.normalised_from_frame, source), config.voxel_ratio, config)
+    tgt_down, tgt_feat = _prepare(sim3.apply(tn.normalised_from_frame, tgt), config.voxel_ratio, config)
+    distance = config.ransac_distance_voxels * config.voxel_ratio
+    direct = []
+    for restart in range(config.ransac_restarts):
+        o3d.utility.random.seed(config.seed + restart)
+        result = reg.registration_ransac_based_on_feature_matching(
+            src_down,
+            tgt_down,
+            src_feat,
+            tgt_feat,
+            True,
+            distance,
+            reg.TransformationEstimationPointToPoint(True),
+            3,
+            [
+                reg.CorrespondenceCheckerBasedOnEdgeLength(config.ransac_edge_length),
+                reg.CorrespondenceCheckerBasedOnDistance(distance),
+            ],
+            reg.RANSACConvergenceCriteria(config.ransac_iterations, config.ransac_confidence),
+        )
+        tn_from_sn = np.asarray(result.transformation)
+        direct.append(sim3.compose(tn.frame_from_normalised, sim3.compose(tn_from_sn, sn.normalised_from_frame)))
+    assert len(shared) == len(direct) == 2
+    for a, b in zip(shared, direct, strict=True):
+        np.testing.assert_array_equal(a, b)
