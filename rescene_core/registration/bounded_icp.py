@@ -36,6 +36,8 @@ class IcpResult:
     world_from_asset: the refined pose. iterations: steps taken. stop_reason: 'converged',
     'max_iterations' or 'too_few_correspondences'. history: per-step residual and clamp records.
     step_clamps / total_clamps / scale_clips: how often each bound was active.
+    state: the solver's own (scale, rotation [3, 3], translation [3]) after the last step, from which
+    ``bounded_sim3_icp(..., resume=result)`` continues exactly as an uninterrupted run would.
     """
 
     world_from_asset: sim3.Matrix4
@@ -45,6 +47,7 @@ class IcpResult:
     step_clamps: int = 0
     total_clamps: int = 0
     scale_clips: int = 0
+    state: tuple[float, NDArray[np.float64], NDArray[np.float64]] | None = field(default=None, repr=False)
 
 
 def clamp_rotation(rot: NDArray[np.float64], max_angle: float) -> tuple[NDArray[np.float64], bool]:
@@ -79,16 +82,24 @@ def bounded_sim3_icp(
     init: sim3.Matrix4,
     extent: float,
     config: RegistrationConfig,
+    tree: cKDTree | None = None,
+    resume: IcpResult | None = None,
 ) -> IcpResult:
     """Refine ``init`` (world_from_asset) with the bounded Sim(3) ICP.
 
     source: float64 [n, 3] samples on the asset (asset frame). target: float64 [m, 3] world metres.
     extent: the target's bounding-box diagonal (m), the unit of the rejection distance and tolerance.
+    tree: a cKDTree of ``source`` to reuse (built here when None).
+    resume: an earlier, shorter run from the same ``init`` with the same bounds (e.g. a probe with fewer
+    ``max_iterations``); the refinement continues from its state, so the result is that of one run
+    of ``config.max_iterations`` from ``init``. A resumed run that had stopped for another reason than
+    its iteration budget is returned unchanged.
     Raises FloatingPointError / Sim3Error on a numerical failure (the caller falls back).
     """
     s0, rot0, _ = sim3.parts_from_sim3(init)
     scale, rot, trans = sim3.parts_from_sim3(init)
-    tree = cKDTree(source)
+    if tree is None:
+        tree = cKDTree(source)
     max_dist = config.max_distance_ratio * extent
     step_max = np.deg2rad(config.max_step_rotation_deg)
     total_max = np.deg2rad(config.max_total_rotation_deg)
@@ -96,8 +107,17 @@ def bounded_sim3_icp(
     history: list[dict[str, Any]] = []
     step_clamps = total_clamps = scale_clips = 0
     stop = "max_iterations"
-    iteration = 0
-    for iteration in range(1, config.max_iterations + 1):
+    iteration = done = 0
+    if resume is not None:
+        if resume.stop_reason != "max_iterations" or resume.iterations >= config.max_iterations:
+            return resume
+        if resume.state is None:
+            raise ValueError("the resumed ICP result carries no solver state")
+        scale, rot, trans = resume.state
+        history = list(resume.history)
+        step_clamps, total_clamps, scale_clips = resume.step_clamps, resume.total_clamps, resume.scale_clips
+        iteration = done = resume.iterations
+    for iteration in range(done + 1, config.max_iterations + 1):
         # Nearest source sample of each target point, queried in the asset frame (tree built once).
         query = ((target - trans) @ rot) / scale
         dist, idx = tree.query(query, workers=1)
@@ -162,4 +182,5 @@ def bounded_sim3_icp(
         step_clamps=step_clamps,
         total_clamps=total_clamps,
         scale_clips=scale_clips,
+        state=(scale, rot, trans),
     )

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
 from rescene_core.records import Asset, InstancePoints, Missing, Pose
-from rescene_core.registration.bounded_icp import bounded_sim3_icp
+from rescene_core.registration.bounded_icp import IcpResult, bounded_sim3_icp
 from rescene_core.registration.fit import Fit, FitEvaluator
 from rescene_core.registration.init import Normalisation, fpfh_ransac_candidates, normalisation_pose
 
@@ -364,21 +364,28 @@ def register_detailed(
 
     # 2) bounded refinement of the accepted candidates; the best gated result by symmetric fitness wins.
     # With several candidates each first gets a short probe refinement (probe_iterations); only the best
-    # probe is refined with the full budget, from its own initialisation (same bounds as a direct run).
+    # probe is refined with the full budget, from its own initialisation (same bounds as a direct run):
+    # the full run continues the probe's ICP where it stopped, which is the same computation.
     best: tuple[tuple[float, float], sim3.Matrix4, Fit, str, dict[str, Any], dict[str, Any]] | None = None
     probing = len(accepted) > 1 and 0 < config.probe_iterations < config.max_iterations
+    finalists: list[tuple[sim3.Matrix4, Fit, dict[str, Any], IcpResult | None]]
     if probing:
         probe_config = config.model_copy(update={"max_iterations": config.probe_iterations})
         probes = []
+        probe_runs: list[IcpResult | None] = []
         for init, init_fit, record in accepted:
-            _, probe_fit, _, _ = _refine(source, tgt, init, init_fit, evaluator, extent, prior, probe_config)
+            _, probe_fit, _, _, probe_run = _refine(source, tgt, init, init_fit, evaluator, extent, prior, probe_config)
             record["probe_fit"] = probe_fit.to_json()
             probes.append((probe_fit.symmetric_fitness, -probe_fit.rmse))
-        finalists = [accepted[int(max(range(len(probes)), key=probes.__getitem__))]]
+            probe_runs.append(probe_run)
+        winner = int(max(range(len(probes)), key=probes.__getitem__))
+        finalists = [(*accepted[winner], probe_runs[winner])]
     else:
-        finalists = accepted
-    for init, init_fit, record in finalists:
-        final, final_fit, method, refinement = _refine(source, tgt, init, init_fit, evaluator, extent, prior, config)
+        finalists = [(*candidate, None) for candidate in accepted]
+    for init, init_fit, record, resume in finalists:
+        final, final_fit, method, refinement, _ = _refine(
+            source, tgt, init, init_fit, evaluator, extent, prior, config, resume
+        )
         record["refined_fit"] = final_fit.to_json()
         record["method"] = method
         key = (final_fit.symmetric_fitness, -final_fit.rmse)
@@ -426,16 +433,20 @@ def _refine(
     extent: float,
     prior: sim3.Matrix4 | None,
     config: RegistrationConfig,
-) -> tuple[sim3.Matrix4, Fit, str, dict[str, Any]]:
+    resume: IcpResult | None = None,
+) -> tuple[sim3.Matrix4, Fit, str, dict[str, Any], IcpResult | None]:
     """Bounded ICP from ``init``, gated; a solver failure falls back to the conservative rigid ICP.
 
-    Returns (pose, fit, method, diagnostics); the pose is ``init`` when the refinement is rejected.
+    ``resume``: a shorter bounded ICP run from the same ``init`` to continue (see ``bounded_sim3_icp``).
+    Returns (pose, fit, method, diagnostics, the bounded ICP run or None when it failed); the pose is
+    ``init`` when the refinement is rejected.
     """
     method = "bounded_sim3_icp"
     refined: sim3.Matrix4 | None = None
     out: dict[str, Any] = {}
+    result: IcpResult | None = None
     try:
-        result = bounded_sim3_icp(source, target, init, extent, config)
+        result = bounded_sim3_icp(source, target, init, extent, config, tree=evaluator.source_tree, resume=resume)
         problems = sim3.check_sim3(result.world_from_asset, atol=1e-6)
         if problems:
             raise FloatingPointError(f"invalid ICP output: {problems}")
@@ -450,6 +461,7 @@ def _refine(
             "error": None,
         }
     except Exception as err:
+        result = None
         out = {"error": f"{type(err).__name__}: {err}"}
         method = "fallback_nn_icp"
         try:
@@ -462,7 +474,7 @@ def _refine(
             refined = None
     if refined is None:
         out.update({"accepted": False, "reasons": ["no refinement produced"]})
-        return init, init_fit, "init_only", out
+        return init, init_fit, "init_only", out, None
     refined_fit = evaluator(refined)
     reasons = _result_gate(refined, init, refined_fit, init_fit, prior, config)
     s0, rot0, _ = sim3.parts_from_sim3(init)
@@ -480,5 +492,5 @@ def _refine(
         }
     )
     if reasons:
-        return init, init_fit, "init_only", out
-    return refined, refined_fit, method, out
+        return init, init_fit, "init_only", out, result
+    return refined, refined_fit, method, out, result

@@ -334,3 +334,31 @@ def test_shared_feature_matches_give_the_feature_matching_ransac_candidates():
     assert len(shared) == len(direct) == 2
     for a, b in zip(shared, direct, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_icp_resumed_from_a_probe_equals_one_uninterrupted_run():
+    asset, target, gt = _case(chair_mesh(), seed=5, partial=False)
+    points = np.asarray(target.points, np.float64)
+    centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
+    off = sim3.sim3_from_parts(1.2, Rotation.from_euler("z", 30, degrees=True).as_matrix(), np.zeros(3))
+    init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
+    source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
+    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    config = CONFIG.model_copy(update={"icp_tolerance": 0.0})  # run the whole budget
+    direct = register_module.bounded_sim3_icp(source, points, init, extent, config)
+    probe_config = config.model_copy(update={"max_iterations": config.probe_iterations})
+    probe = register_module.bounded_sim3_icp(source, points, init, extent, probe_config)
+    assert probe.iterations == config.probe_iterations and probe.stop_reason == "max_iterations"
+    resumed = register_module.bounded_sim3_icp(source, points, init, extent, config, resume=probe)
+    assert direct.iterations == resumed.iterations == config.max_iterations
+    np.testing.assert_array_equal(direct.world_from_asset, resumed.world_from_asset)
+    assert direct.history == resumed.history
+    assert (direct.step_clamps, direct.total_clamps, direct.scale_clips) == (
+        resumed.step_clamps,
+        resumed.total_clamps,
+        resumed.scale_clips,
+    )
+    # a probe that already stopped (converged) is the final result
+    done = register_module.bounded_sim3_icp(source, points, init, extent, CONFIG)
+    if done.stop_reason != "max_iterations":
+        assert register_module.bounded_sim3_icp(source, points, init, extent, CONFIG, resume=done) is done
