@@ -50,8 +50,15 @@ class IcpResult:
     state: tuple[float, NDArray[np.float64], NDArray[np.float64]] | None = field(default=None, repr=False)
 
 
+_ANGLE_MARGIN = 1e-6
+"""Radians: the trace-based angle decides 'within the clamp' only this far from the bound (its rounding
+near a small angle is far below this); closer cases take the exact axis-angle path."""
+
+
 def clamp_rotation(rot: NDArray[np.float64], max_angle: float) -> tuple[NDArray[np.float64], bool]:
     """Shorten a rotation [3, 3] along its geodesic to at most ``max_angle`` radians; (rotation, clamped)."""
+    if sim3.rotation_angle(rot) < max_angle - _ANGLE_MARGIN:  # clearly within: no axis-angle round trip
+        return np.asarray(rot, dtype=np.float64), False
     rotvec = Rotation.from_matrix(rot).as_rotvec()
     angle = float(np.linalg.norm(rotvec))
     if angle <= max_angle:
@@ -66,7 +73,10 @@ def umeyama(source: NDArray[np.float64], target: NDArray[np.float64]) -> tuple[f
     """
     src_c = source - source.mean(axis=0)
     tgt_c = target - target.mean(axis=0)
-    rot = Rotation.align_vectors(tgt_c, src_c)[0].as_matrix()
+    # Kabsch: the rotation maximising trace(R H) for H = src_c^T tgt_c, reflection excluded.
+    u, _, vt = np.linalg.svd(src_c.T @ tgt_c)
+    flip = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
+    rot = vt.T @ np.diag([1.0, 1.0, flip]) @ u.T
     denom = float(np.sum(src_c * src_c))
     if denom <= 0:
         raise FloatingPointError("source correspondences collapse to one point")
@@ -97,6 +107,7 @@ def bounded_sim3_icp(
     Raises FloatingPointError / Sim3Error on a numerical failure (the caller falls back).
     """
     s0, rot0, _ = sim3.parts_from_sim3(init)
+    quat0 = Rotation.from_matrix(rot0)
     scale, rot, trans = sim3.parts_from_sim3(init)
     if tree is None:
         tree = cKDTree(source)
@@ -140,11 +151,11 @@ def bounded_sim3_icp(
         step_scale = float(np.exp(keep_log * np.log(s_u / scale)))
         new_scale = scale * step_scale
         clipped = float(np.clip(new_scale, s0 * config.scale_min, s0 * config.scale_max))
-        scale_clipped = not np.isclose(clipped, new_scale, rtol=1e-12, atol=0.0)
+        scale_clipped = abs(clipped - new_scale) > 1e-12 * abs(new_scale)  # np.isclose(rtol=1e-12, atol=0)
         ref_rot, total_clamped = clamp_rotation(step_rot @ rot @ rot0.T, total_max)
         # Rebuilt through a quaternion: chained matrix products lose orthonormality, and
         # R_u R^T R then doubles the error every step.
-        new_rot = (Rotation.from_matrix(ref_rot) * Rotation.from_matrix(rot0)).as_matrix()
+        new_rot = (Rotation.from_matrix(ref_rot) * quat0).as_matrix()
         new_trans = b.mean(axis=0) - clipped * (new_rot @ a.mean(axis=0))
 
         # Displacement bound of points within the target extent (m): translation + rotation + scale.
