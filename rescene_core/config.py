@@ -41,12 +41,23 @@ class ShellConfig(_Section):
     """Without wall labels: least vertical extent of a wall plane's inliers (m)."""
     merge_angle_deg: float = 10.0
     """Wall planes closer than this angle and merge_distance in offset are merged (deg)."""
-    merge_distance: float = 0.15
-    """Parallel wall planes closer than this are one wall (noisy depth splits a wall into slabs) (m)."""
+    merge_distance: float = 0.2
+    """Parallel wall planes closer than this, with overlapping segments, are one wall (noisy depth splits a
+    wall into slabs) (m)."""
+    wall_refine_band: float = 0.15
+    """Half-width of the slab a wall plane is refitted to (median offset, line fit of its footprint) (m)."""
+    wall_refine_iterations: int = 3
+    """Refits of a wall plane to its slab."""
+    polygon_snap_distance: float = 0.3
+    """Wall lines this far outside the floor points' outline still bound the floor polygon (m)."""
+    polygon_cell_min_coverage: float = 0.5
+    """A cell of the wall-line arrangement is floor when the floor outline covers at least this fraction."""
+    polygon_sliver: float = 0.05
+    """Opening radius of the floor polygon: spikes and slivers narrower than twice this go (m)."""
     polygon_concave_ratio: float = 1.0
     """shapely concave_hull ratio of the floor outline before walls cut it (1 = convex hull; lower follows
     holes that furniture leaves in the floor points)."""
-    polygon_simplify: float = 0.05
+    polygon_simplify: float = 0.01
     """Douglas-Peucker tolerance of the floor polygon (m)."""
     ransac_iterations: int = 1000
     """RANSAC iterations per plane."""

@@ -22,8 +22,9 @@ import numpy as np
 import open3d as o3d
 import shapely
 from numpy.typing import NDArray
-from shapely.geometry import MultiPoint, Polygon, box
+from shapely.geometry import LineString, MultiPoint, Polygon
 from shapely.geometry.polygon import orient
+from shapely.ops import polygonize, unary_union
 
 from rescene_core.capture import Capture
 from rescene_core.config import ShellConfig
@@ -42,6 +43,7 @@ class _Wall:
     offset: float
     s_range: tuple[float, float]  # extent along the tangent (-n_y, n_x), metres
     support: int
+    points: NDArray[np.float64]  # [k, 3] the points the plane was fitted to (within wall_refine_band)
 
     @property
     def tangent(self) -> NDArray[np.float64]:
@@ -93,14 +95,42 @@ def _orient(normal: NDArray, offset: float, inside: NDArray[np.float64]) -> tupl
     return normal, offset
 
 
+def _refine(
+    points: NDArray[np.float64], normal: NDArray[np.float64], offset: float, config: ShellConfig
+) -> tuple[NDArray[np.float64], float, NDArray[np.bool_]]:
+    """Refit a vertical plane to the points [m, 3] within ``wall_refine_band`` of it: horizontal normal from a
+    total-least-squares line through their (x, y), offset the median of their projections (a depth-noise slab
+    is centred, not cut at one side as a thin RANSAC band would). Returns normal [2], offset, band mask [m]."""
+    xy = points[:, :2]
+    band = np.abs(xy @ normal + offset) <= config.wall_refine_band
+    for _ in range(config.wall_refine_iterations):
+        if band.sum() < 3:
+            break
+        sel = xy[band]
+        centred = sel - sel.mean(axis=0)
+        _, _, vt = np.linalg.svd(centred, full_matrices=False)
+        n = vt[1] if vt[1] @ normal >= 0 else -vt[1]
+        if n @ normal >= np.cos(np.radians(config.merge_angle_deg)):
+            normal = n / np.linalg.norm(n)
+        offset = -float(np.median(sel @ normal))
+        band = np.abs(xy @ normal + offset) <= config.wall_refine_band
+    return normal, offset, band
+
+
+def _make_wall(normal: NDArray, offset: float, pts: NDArray[np.float64]) -> _Wall:
+    s = pts[:, :2] @ np.array([-normal[1], normal[0]])
+    return _Wall(normal, offset, (float(np.percentile(s, 1)), float(np.percentile(s, 99))), len(pts), pts)
+
+
 def _vertical_planes(
     points: NDArray[np.float64],
     config: ShellConfig,
     inside: NDArray[np.float64],
     outer_check: NDArray[np.float64] | None,
 ) -> list[_Wall]:
-    """Vertical planes by repeated RANSAC. outer_check: all points [m, 2]; when given, a plane is a wall only if
-    it is tall enough and at most ``wall_max_outside_fraction`` of them lie behind it."""
+    """Vertical planes by repeated RANSAC, each refitted to its slab (``_refine``). outer_check: all points
+    [m, 2]; when given, a plane is a wall only if it is tall enough and at most ``wall_max_outside_fraction``
+    of them lie behind it."""
     walls: list[_Wall] = []
     remaining = points
     cos_tol = np.sin(np.radians(config.vertical_tolerance_deg))
@@ -115,19 +145,16 @@ def _vertical_planes(
             nh = n[:2] / np.linalg.norm(n[:2])
             xy = remaining[:, :2]
             offset = -float(np.median(xy[inl] @ nh))
-            near = np.abs(xy @ nh + offset) <= config.ransac_distance
+            nh, offset, near = _refine(remaining, nh, offset, config)
             nh, offset = _orient(nh, offset, inside)
             pts_in = remaining[near]
             ok = near.sum() >= config.min_wall_points
             if ok and outer_check is not None:
                 height = np.percentile(pts_in[:, 2], 98) - np.percentile(pts_in[:, 2], 2)
-                behind = np.mean(outer_check @ nh + offset < -config.ransac_distance)
+                behind = np.mean(outer_check @ nh + offset < -config.wall_refine_band)
                 ok = height >= config.wall_min_height and behind <= config.wall_max_outside_fraction
             if ok:
-                s = pts_in[:, :2] @ np.array([-nh[1], nh[0]])
-                walls.append(
-                    _Wall(nh, offset, (float(np.percentile(s, 1)), float(np.percentile(s, 99))), int(near.sum()))
-                )
+                walls.append(_make_wall(nh, offset, pts_in))
             remaining = remaining[~near]
         else:
             mask = np.ones(len(remaining), bool)
@@ -136,16 +163,28 @@ def _vertical_planes(
     return walls
 
 
+def _overlap(a: _Wall, b: _Wall) -> float:
+    """Length (m) by which b's segment overlaps a's along a's tangent (negative: the gap between them)."""
+    s = sorted(float(p @ a.tangent) for p in b.endpoints())
+    return min(a.s_range[1], s[1]) - max(a.s_range[0], s[0])
+
+
 def _merge(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
+    """Merge planes of one wall: near-parallel, and either collinear (offsets within ``2 ransac_distance``;
+    pieces of a wall split by occluders) or within ``merge_distance`` with overlapping segments (a noisy
+    slab fitted twice). The merged plane is refitted to the union of both point sets, starting from the
+    better-supported plane; the largest merges first."""
     merged: list[_Wall] = []
     cos_merge = np.cos(np.radians(config.merge_angle_deg))
     for w in sorted(walls, key=lambda w: -w.support):
-        for m in merged:
-            if float(w.normal @ m.normal) >= cos_merge and abs(w.offset - m.offset) <= config.merge_distance:
-                a, b = w.endpoints()
-                s = [float(a @ m.tangent), float(b @ m.tangent)]
-                m.s_range = (min(m.s_range[0], *s), max(m.s_range[1], *s))
-                m.support += w.support
+        for k, m in enumerate(merged):
+            if float(w.normal @ m.normal) < cos_merge:
+                continue
+            gap = abs(w.offset - m.offset)
+            if gap <= 2 * config.ransac_distance or (gap <= config.merge_distance and _overlap(m, w) > 0):
+                pts = np.concatenate([m.points, w.points])
+                n, off, band = _refine(pts, m.normal, m.offset, config)
+                merged[k] = _make_wall(n, off, pts[band] if band.sum() >= 3 else pts)
                 break
         else:
             merged.append(w)
@@ -161,43 +200,61 @@ def _largest(geom) -> Polygon | None:
     return max(polys, key=lambda p: p.area) if polys else None
 
 
+def _behind(w: _Wall, xy: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
+    """Points [k, 2] behind wall w (further than ``margin``) and within its segment's extent along it."""
+    s = xy @ w.tangent
+    return (xy @ w.normal + w.offset < -margin) & (s >= w.s_range[0] - margin) & (s <= w.s_range[1] + margin)
+
+
+def _line(w: _Wall, reach: float) -> LineString:
+    foot = -w.offset * w.normal
+    return LineString([foot - reach * w.tangent, foot + reach * w.tangent])
+
+
+def _strip(w: _Wall, config: ShellConfig) -> Polygon:
+    """The band in front of a wall segment, ``polygon_snap_distance`` deep, ``polygon_sliver`` longer at each end."""
+    a, b = w.endpoints()
+    t, n = w.tangent, w.normal
+    a, b = a - config.polygon_sliver * t, b + config.polygon_sliver * t
+    d = config.polygon_snap_distance
+    return Polygon([a, b, b + d * n, a + d * n])
+
+
 def _polygon(floor_xy: NDArray[np.float64], all_xy: NDArray[np.float64], walls: list[_Wall], config: ShellConfig):
+    """Floor polygon [v, 2] (counter-clockwise) from the floor outline and the wall segments.
+
+    The outline R0 is the hull of the floor points (``polygon_concave_ratio``). The wall lines cut R0 grown
+    by ``polygon_snap_distance`` into cells; a cell is floor when R0 covers at least
+    ``polygon_cell_min_coverage`` of it and it does not lie behind a wall segment. Within the kept cells the
+    polygon is R0 plus a strip in front of each wall segment, so wherever a wall bounds the room the edge
+    lies on the wall's line, and an open side keeps the outline of the floor points. An opening by
+    ``polygon_sliver`` removes spikes and slivers."""
     base_xy = floor_xy if len(floor_xy) >= 3 else all_xy
-    hull = MultiPoint(base_xy).convex_hull
-    lo, hi = all_xy.min(axis=0), all_xy.max(axis=0)
-    reach = float(np.linalg.norm(hi - lo)) + 1.0
-    frame = box(*(lo - reach), *(hi + reach))
-    poly = None
-    if walls:
-        inner = frame
-        for w in walls:
-            t = w.tangent
-            foot = -w.offset * w.normal
-            half = Polygon(
-                [
-                    foot - 3 * reach * t,
-                    foot + 3 * reach * t,
-                    foot + 3 * reach * t + 3 * reach * w.normal,
-                    foot - 3 * reach * t + 3 * reach * w.normal,
-                ]
-            )
-            inner = inner.intersection(half)
-        inside = shapely.contains_xy(inner.buffer(config.ransac_distance), base_xy[:, 0], base_xy[:, 1])
-        if not inner.is_empty and inside.mean() >= 1.0 - config.wall_max_outside_fraction:
-            poly = _largest(inner.intersection(hull.buffer(config.ransac_distance)))
-    if poly is None:
-        poly = _largest(shapely.concave_hull(MultiPoint(base_xy), ratio=config.polygon_concave_ratio)) or _largest(hull)
-        for w in walls:
-            a, b = w.endpoints()
-            t = w.tangent
-            margin = config.ransac_distance * 2
-            behind = Polygon(
-                [a - margin * t, b + margin * t, b + margin * t - reach * w.normal, a - margin * t - reach * w.normal]
-            )
-            cut = _largest(poly.difference(behind)) if poly is not None else None
-            poly = cut or poly
-    if poly is None or poly.area <= 0:
+    outline = _largest(shapely.concave_hull(MultiPoint(base_xy), ratio=config.polygon_concave_ratio))
+    outline = outline or _largest(MultiPoint(base_xy).convex_hull)
+    if outline is None or outline.area <= 0:
         raise ShellError("cannot form a floor polygon: the floor points span no area")
+    poly = outline
+    if walls:
+        domain = outline.buffer(config.polygon_snap_distance, join_style="mitre")
+        reach = float(np.linalg.norm(np.subtract(*np.reshape(domain.bounds, (2, 2))))) + 1.0
+        pieces = polygonize(unary_union([domain.exterior] + [_line(w, reach) for w in walls]))
+        cells = [c for c in pieces if c.area > 0 and domain.contains(c.representative_point())]
+        keep = []
+        for c in cells:
+            rp = np.array(c.representative_point().coords)[:1]
+            covered = c.intersection(outline).area / c.area
+            shadowed = any(_behind(w, rp, 0.0)[0] for w in walls)
+            if covered >= config.polygon_cell_min_coverage and not shadowed:
+                keep.append(c)
+        if keep:
+            reach_out = unary_union([outline.buffer(config.ransac_distance)] + [_strip(w, config) for w in walls])
+            poly = _largest(unary_union(keep).intersection(reach_out)) or outline
+        else:
+            log.warning("no arrangement cell of the wall lines is covered by floor; the polygon is the floor outline")
+    eps = config.polygon_sliver
+    opened = _largest(poly.buffer(-eps, join_style="mitre").buffer(eps, join_style="mitre"))
+    poly = opened if opened is not None and opened.area >= 0.5 * poly.area else poly
     poly = _largest(poly.simplify(config.polygon_simplify)) or poly
     poly = orient(poly, 1.0)
     return tuple((float(x), float(y)) for x, y in list(poly.exterior.coords)[:-1])
