@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
+from rescene_core.registration.fit import KD_LEAF_SIZE
 
 
 @dataclass(frozen=True)
@@ -110,7 +111,7 @@ def bounded_sim3_icp(
     quat0 = Rotation.from_matrix(rot0)
     scale, rot, trans = sim3.parts_from_sim3(init)
     if tree is None:
-        tree = cKDTree(source)
+        tree = cKDTree(source, leafsize=KD_LEAF_SIZE)
     max_dist = config.max_distance_ratio * extent
     step_max = np.deg2rad(config.max_step_rotation_deg)
     total_max = np.deg2rad(config.max_total_rotation_deg)
@@ -131,7 +132,9 @@ def bounded_sim3_icp(
     for iteration in range(done + 1, config.max_iterations + 1):
         # Nearest source sample of each target point, queried in the asset frame (tree built once).
         query = ((target - trans) @ rot) / scale
-        dist, idx = tree.query(query, workers=1)
+        # Pairs beyond max_dist are rejected below; the search need not look farther (a hair of margin
+        # keeps the rejection test below the one authority, so the kept pairs are the same).
+        dist, idx = tree.query(query, workers=1, distance_upper_bound=(1.0 + 1e-9) * max_dist / scale)
         dist = dist * scale
         near = dist <= max_dist
         if int(near.sum()) < config.min_correspondences:

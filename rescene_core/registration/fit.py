@@ -43,6 +43,10 @@ class Fit:
         }
 
 
+KD_LEAF_SIZE = 32
+"""Leaf size of the registration KD-trees (speed only: the neighbours found are the same)."""
+
+
 class FitEvaluator:
     """Evaluates poses of fixed source samples (asset frame) against fixed target points (world, m).
 
@@ -54,18 +58,27 @@ class FitEvaluator:
         self.source = np.asarray(source, dtype=np.float64)
         self.target = np.asarray(target, dtype=np.float64)
         self.threshold = float(threshold)
-        self.source_tree = cKDTree(self.source)
-        self.target_tree = cKDTree(self.target)
+        # Built once per instance and shared by every fit, the ICP and its probes. Leaves of 32 points
+        # answer these 3000-5000-point batch queries faster than the default 16 (same neighbours).
+        self.source_tree = cKDTree(self.source, leafsize=KD_LEAF_SIZE)
+        self.target_tree = cKDTree(self.target, leafsize=KD_LEAF_SIZE)
 
-    def target_to_source(self, world_from_asset: sim3.Matrix4) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """Distance (m, world) and index of the nearest source sample for every target point."""
+    def target_to_source(
+        self, world_from_asset: sim3.Matrix4, upper_bound: float = np.inf
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Distance (m, world) and index of the nearest source sample for every target point.
+
+        upper_bound (m, world): points with no source sample within it get distance inf and index
+        ``len(source)`` (the search stops there, which is faster).
+        """
         scale = sim3.parts_from_sim3(world_from_asset)[0]
         query = sim3.apply(sim3.inverse(world_from_asset), self.target)
-        dist, idx = self.source_tree.query(query, workers=1)
+        dist, idx = self.source_tree.query(query, workers=1, distance_upper_bound=upper_bound / scale)
         return dist * scale, idx
 
     def __call__(self, world_from_asset: sim3.Matrix4) -> Fit:
-        dist, _ = self.target_to_source(world_from_asset)
+        # Distances beyond the threshold count as the threshold, so the search stops just past it.
+        dist, _ = self.target_to_source(world_from_asset, (1.0 + 1e-9) * self.threshold)
         clipped = np.minimum(dist, self.threshold)
         posed = sim3.apply(world_from_asset, self.source)
         back, _ = self.target_tree.query(posed, distance_upper_bound=self.threshold, workers=1)
