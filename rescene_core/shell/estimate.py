@@ -96,13 +96,13 @@ def _orient(normal: NDArray, offset: float, inside: NDArray[np.float64]) -> tupl
 
 
 def _refine(
-    points: NDArray[np.float64], normal: NDArray[np.float64], offset: float, config: ShellConfig
+    points: NDArray[np.float64], normal: NDArray[np.float64], offset: float, config: ShellConfig, width: float
 ) -> tuple[NDArray[np.float64], float, NDArray[np.bool_]]:
-    """Refit a vertical plane to the points [m, 3] within ``wall_refine_band`` of it: horizontal normal from a
+    """Refit a vertical plane to the points [m, 3] within ``width`` (m) of it: horizontal normal from a
     total-least-squares line through their (x, y), offset the median of their projections (a depth-noise slab
     is centred, not cut at one side as a thin RANSAC band would). Returns normal [2], offset, band mask [m]."""
     xy = points[:, :2]
-    band = np.abs(xy @ normal + offset) <= config.wall_refine_band
+    band = np.abs(xy @ normal + offset) <= width
     for _ in range(config.wall_refine_iterations):
         if band.sum() < 3:
             break
@@ -113,7 +113,7 @@ def _refine(
         if n @ normal >= np.cos(np.radians(config.merge_angle_deg)):
             normal = n / np.linalg.norm(n)
         offset = -float(np.median(sel @ normal))
-        band = np.abs(xy @ normal + offset) <= config.wall_refine_band
+        band = np.abs(xy @ normal + offset) <= width
     return normal, offset, band
 
 
@@ -127,10 +127,11 @@ def _vertical_planes(
     config: ShellConfig,
     inside: NDArray[np.float64],
     outer_check: NDArray[np.float64] | None,
+    width: float,
 ) -> list[_Wall]:
-    """Vertical planes by repeated RANSAC, each refitted to its slab (``_refine``). outer_check: all points
-    [m, 2]; when given, a plane is a wall only if it is tall enough and at most ``wall_max_outside_fraction``
-    of them lie behind it."""
+    """Vertical planes by repeated RANSAC, each refitted to the points within ``width`` (m; ``_refine``).
+    outer_check: all points [m, 2]; when given, a plane is a wall only if it is tall enough and at most
+    ``wall_max_outside_fraction`` of them lie behind it within its extent."""
     walls: list[_Wall] = []
     remaining = points
     cos_tol = np.sin(np.radians(config.vertical_tolerance_deg))
@@ -145,13 +146,18 @@ def _vertical_planes(
             nh = n[:2] / np.linalg.norm(n[:2])
             xy = remaining[:, :2]
             offset = -float(np.median(xy[inl] @ nh))
-            nh, offset, near = _refine(remaining, nh, offset, config)
+            nh, offset, near = _refine(remaining, nh, offset, config, width)
             nh, offset = _orient(nh, offset, inside)
             pts_in = remaining[near]
             ok = near.sum() >= config.min_wall_points
             if ok and outer_check is not None:
                 height = np.percentile(pts_in[:, 2], 98) - np.percentile(pts_in[:, 2], 2)
-                behind = np.mean(outer_check @ nh + offset < -config.wall_refine_band)
+                # behind the plane within its extent: a furniture face has the room behind it, a wall
+                # (also the inner wall of an L-shaped room's notch) has nothing
+                seg = _make_wall(nh, offset, pts_in)
+                s_out = outer_check @ seg.tangent
+                within = (s_out >= seg.s_range[0]) & (s_out <= seg.s_range[1])
+                behind = np.mean((outer_check @ nh + offset < -width) & within)
                 ok = height >= config.wall_min_height and behind <= config.wall_max_outside_fraction
             if ok:
                 walls.append(_make_wall(nh, offset, pts_in))
@@ -169,7 +175,7 @@ def _overlap(a: _Wall, b: _Wall) -> float:
     return min(a.s_range[1], s[1]) - max(a.s_range[0], s[0])
 
 
-def _merge(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
+def _merge(walls: list[_Wall], config: ShellConfig, width: float) -> list[_Wall]:
     """Merge planes of one wall: near-parallel, and either collinear (offsets within ``2 ransac_distance``;
     pieces of a wall split by occluders) or within ``merge_distance`` with overlapping segments (a noisy
     slab fitted twice). The merged plane is refitted to the union of both point sets, starting from the
@@ -183,7 +189,7 @@ def _merge(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
             gap = abs(w.offset - m.offset)
             if gap <= 2 * config.ransac_distance or (gap <= config.merge_distance and _overlap(m, w) > 0):
                 pts = np.concatenate([m.points, w.points])
-                n, off, band = _refine(pts, m.normal, m.offset, config)
+                n, off, band = _refine(pts, m.normal, m.offset, config, width)
                 merged[k] = _make_wall(n, off, pts[band] if band.sum() >= 3 else pts)
                 break
         else:
@@ -290,15 +296,18 @@ def estimate_shell(capture: Capture, config: ShellConfig | None = None) -> RoomS
 
     wall_ids = by_label.get("wall", [])
     walls: list[_Wall] = []
+    width = config.wall_refine_band
     if wall_ids:
         for wid in wall_ids:
             wp = points[point_ids == wid]
             if len(wp) >= 3:
-                walls += _vertical_planes(_downsample(wp, config.sample_voxel), config, inside, None)
+                walls += _vertical_planes(_downsample(wp, config.sample_voxel), config, inside, None, width)
     else:
+        # without labels a wide slab would take in furniture standing near the wall: fit to the RANSAC band
+        width = config.ransac_distance
         above = thin[thin[:, 2] > floor_z + 3 * config.ransac_distance]
-        walls = _vertical_planes(above, config, inside, thin[:, :2])
-    walls = _merge(walls, config)[: config.max_walls]
+        walls = _vertical_planes(above, config, inside, thin[:, :2], width)
+    walls = _merge(walls, config, width)[: config.max_walls]
     # Wall points mark the room's outline where furniture hides the floor; the walls then cut what lies behind.
     outline_xy = floor_xy
     if wall_ids:
