@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rescene_core.bench.assembly import perturb, run_stages, scaling, table
+from rescene_core.bench.assembly import METRICS, perturb, run_stages, scaling, table
 from tests.assembly.helpers import scene
 
 
@@ -22,25 +22,7 @@ def test_scaling_and_table_render():
     s = scaling(repeats=1)
     assert s["20"] > 0 and s["80"] > 0
     result = {
-        "summary": {
-            "x": {
-                st: {
-                    k: 0.0
-                    for k in (
-                        "oob_rate",
-                        "collision_pairs",
-                        "collision_rate",
-                        "floor_contact_pass",
-                        "wall_contact_pass",
-                        "support_contact_pass",
-                        "pose_err_median",
-                        "rot_err_median",
-                        "seconds",
-                    )
-                }
-                for st in ("none", "relations", "repair", "full")
-            }
-        },
+        "summary": {"x": {st: {k: 0.0 for k in METRICS} for st in ("none", "relations", "repair", "full")}},
         "scaling": s,
         "not_run": {"fused_graph": "why"},
         "seeds": [0],
