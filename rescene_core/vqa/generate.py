@@ -256,6 +256,15 @@ class _Generator:
     def confident(self, e: Edge) -> bool:
         return float(e.confidence) >= self.config.min_confidence
 
+    def pick_confident(self, cat: Category, edges: list[Edge]) -> Edge | None:
+        """A random edge of ``edges`` at or above the confidence threshold; None (and a recorded
+        low-confidence drop) when there is none."""
+        sure = [e for e in edges if self.confident(e)]
+        if not sure:
+            self.drop(cat, Filter.LOW_CONFIDENCE)
+            return None
+        return sure[int(self.rng.integers(len(sure)))]
+
     def parent_label(self, e: Edge) -> str:
         pid = edge_parent_id(e)
         return FLOOR_ANSWER if pid is None and e.parent == Root.FLOOR else ("wall" if pid is None else self.label(pid))
@@ -486,11 +495,9 @@ class _Generator:
             if pid not in self.unique:
                 self.drop(cat, Filter.AMBIGUOUS_REFERENCE)
                 continue
-            sure = [e for e in kids if self.confident(e)]
-            if not sure:
-                self.drop(cat, Filter.LOW_CONFIDENCE)
+            pick = self.pick_confident(cat, kids)
+            if pick is None:
                 continue
-            pick = sure[int(self.rng.integers(len(sure)))]
             ans = self.label(int(pick.child))
             exclude = {self.label(int(e.child)) for e in kids} | {self.label(pid)}
             self.add(
@@ -573,11 +580,9 @@ class _Generator:
             if self.wall_name_counts[name] > 1:
                 self.drop(cat, Filter.AMBIGUOUS_WALL)
                 continue
-            sure = [e for e in es if self.confident(e)]
-            if not sure:
-                self.drop(cat, Filter.LOW_CONFIDENCE)
+            pick = self.pick_confident(cat, es)
+            if pick is None:
                 continue
-            pick = sure[int(self.rng.integers(len(sure)))]
             ans = self.label(int(pick.child))
             exclude = {self.label(int(e.child)) for e in es}
             self.add(
@@ -650,11 +655,9 @@ class _Generator:
             if len(others) > 1 and not self.far_enough(others[0][0], others[1][0]):
                 self.drop(cat, Filter.NEAR_EQUAL_DISTANCE)
                 continue
-            sure = [k for k in kids if self.confident(k)]
-            if not sure:
-                self.drop(cat, Filter.LOW_CONFIDENCE)
+            pick = self.pick_confident(cat, kids)
+            if pick is None:
                 continue
-            pick = sure[int(self.rng.integers(len(sure)))]
             ans = self.label(int(pick.child))
             exclude = {self.label(int(k.child)) for k in self.children[near]} | {self.label(a)}
             self.add(
@@ -697,11 +700,9 @@ class _Generator:
                     kids = [k for k in self.children[n] if k.relation == Relation.RESTS_ON]
                     if not kids:
                         continue
-                    sure = [k for k in kids if self.confident(k)]
-                    if not sure:
-                        self.drop(cat, Filter.LOW_CONFIDENCE)
+                    pick = self.pick_confident(cat, kids)
+                    if pick is None:
                         continue
-                    pick = sure[int(self.rng.integers(len(sure)))]
                     ans = self.label(int(pick.child))
                     exclude = {self.label(int(k.child)) for k in kids} | {self.label(b)}
                     self.add(
