@@ -146,7 +146,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("suite", nargs="?")
     p.add_argument("--out", type=Path)
     p.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-4"))
-    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument(
+        "--preset",
+        default="standard",
+        choices=["tiny", "standard", "cluttered", "all"],
+        help="synthetic preset (all: every preset the suite measures; assembly only)",
+    )
     p.add_argument("--list", action="store_true", help="list the suites")
     p.set_defaults(func=_cmd_bench)
 

@@ -1,12 +1,17 @@
 """Depenetration: small contact-reverse displacements for colliding non-related pairs (paper Table A, last row).
 
 Each iteration finds the colliding pairs (rtree + fcl, pairs where one object is an ancestor of the other
-excluded) and, for each pair, the minimum translation vector that separates the two convex footprints
-(separating-axis test, plus ``contact_gap`` of clearance). The pair shares it inversely to footprint area,
-so a lamp yields to a bed. Per iteration an object moves at most ``depenetration_step`` m; a wall-mounted
-object moves only along its wall, at most ``wall_tangent_step`` m. A move that would take the footprint
-out of the room is cut back into it. Objects move with their descendants. At most
-``depenetration_iterations`` iterations; stops early when nothing collides.
+excluded). Each side of a pair is a *mover*: the object itself, or, for an object resting on another, the
+top of its support chain (the object on the floor or the wall that carries it), so a lamp pushed by a bed
+takes its nightstand along instead of sliding off it (two objects carried by the same mover move
+themselves). A mover's separating vector is the minimum translation that ends the overlap of the two
+convex outlines (separating-axis test, plus ``contact_gap`` of clearance): footprints on the floor plane
+for a floor mover; outlines projected on the wall plane (along the wall and up) for a wall-mounted mover,
+which may only slide in its wall's plane, so a picture under a shelf moves down rather than nowhere. The
+pair shares the separation inversely to footprint area, so a lamp yields to a bed. Per iteration a mover
+moves at most ``depenetration_step`` m, a wall-mounted one at most ``wall_tangent_step`` m. A move that
+would take the footprint out of the room is cut back into it. Movers take their descendants along. At
+most ``depenetration_iterations`` iterations; stops early when nothing collides.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from collections import defaultdict
 
 import numpy as np
 from numpy.typing import NDArray
-from shapely.geometry import Polygon
+from shapely.geometry import MultiPoint, Polygon
 
 from rescene_core.assembly.collision import CollisionWorld
 from rescene_core.assembly.evidence import containment_footprint
@@ -23,7 +28,24 @@ from rescene_core.assembly.refine import containment_region, is_outside
 from rescene_core.assembly.room import fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
-from rescene_core.records import InstanceId
+from rescene_core.records import InstanceId, Relation, Root
+
+
+def _mover(state: LayoutState, i: InstanceId) -> InstanceId:
+    """The object a push on ``i`` moves: the top of its chain of ``rests-on`` object edges."""
+    forest = state.forest
+    while i in forest.edges and forest.edges[i].relation is Relation.RESTS_ON:
+        parent = forest.edges[i].parent
+        if isinstance(parent, Root):
+            break
+        i = InstanceId(parent)
+    return i
+
+
+def _wall_outline(verts: NDArray, tangent: NDArray, up: NDArray) -> Polygon | None:
+    """Convex outline of world vertices [v, 3] on a wall plane, in (along the wall, up) coordinates (m)."""
+    hull = MultiPoint(np.stack([verts @ tangent, verts @ up], axis=1)).convex_hull
+    return hull if isinstance(hull, Polygon) else None
 
 
 def separating_vector(a: Polygon, b: Polygon) -> NDArray[np.float64]:
@@ -60,30 +82,21 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
         moves: dict[InstanceId, NDArray[np.float64]] = defaultdict(lambda: np.zeros(3))
         partners: dict[InstanceId, list[int]] = defaultdict(list)
         for a, b in pairs:
+            ma, mb = _mover(state, a), _mover(state, b)
+            if ma == mb:  # carried by the same object: they move on it themselves
+                ma, mb = a, b
             fa, fb = state.footprint(a), state.footprint(b)
-            mtv = separating_vector(fa, fb)
-            norm = np.linalg.norm(mtv)
-            if norm < 1e-9:  # footprints only touch, yet meshes cross: push along the centre offset
-                d = (state.centre(a) - state.centre(b))[:2]
-                mtv = d / np.linalg.norm(d) * 1e-3 if np.linalg.norm(d) > 1e-9 else np.array([1e-3, 0.0])
-                norm = 1e-3
-            total = mtv * (norm + cfg.contact_gap) / norm
             wa = fb.area / max(fa.area + fb.area, 1e-12)
             if a in state.unfit or b in state.unfit:
                 wa = 0.0 if a in state.unfit else 1.0
-            moves[a][:2] += wa * total
-            moves[b][:2] -= (1.0 - wa) * total
-            partners[a].append(int(b))
-            partners[b].append(int(a))
+            for mover, this, other, share in ((ma, a, b, wa), (mb, b, a, 1.0 - wa)):
+                if share > 0.0:
+                    moves[mover] += share * _separation(state, mover, this, other)
+                    partners[mover].append(int(other))
         for i, move in moves.items():
             if i in state.unfit:
                 continue
-            if i in state.wall_of:
-                wall = state.room.wall(state.wall_of[i])
-                move = (move @ wall.tangent) * wall.tangent if wall is not None else move
-                cap = cfg.wall_tangent_step
-            else:
-                cap = cfg.depenetration_step
+            cap = cfg.wall_tangent_step if i in state.wall_of else cfg.depenetration_step
             length = np.linalg.norm(move)
             if length < 1e-9:
                 continue
@@ -99,3 +112,34 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                     state.move(i, translation([shift[0], shift[1], 0.0]), stage, "keep inside after push")
     pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)
     return len(pairs)
+
+
+def _separation(state: LayoutState, mover: InstanceId, this: InstanceId, other: InstanceId) -> NDArray[np.float64]:
+    """World translation [3] (m) of ``mover`` that ends the overlap of ``this`` (``mover`` or one it carries)
+    with ``other``: on the floor plane, or in the wall's plane for a wall-mounted mover (module docstring)."""
+    cfg = state.config
+    wall = state.room.wall(state.wall_of[mover]) if mover in state.wall_of else None
+    if wall is not None:
+        up = state.room.up
+        pa = _wall_outline(state.vertices(this), wall.tangent, up)
+        pb = _wall_outline(state.vertices(other), wall.tangent, up)
+        if pa is not None and pb is not None:
+            mtv = separating_vector(pa, pb)
+            norm = float(np.linalg.norm(mtv))
+            if norm > 1e-9:
+                mtv = mtv * (norm + cfg.contact_gap) / norm
+                return mtv[0] * wall.tangent + mtv[1] * up
+        d = state.centre(this) - state.centre(other)
+        along = np.array([d @ wall.tangent, d @ up])
+        n = float(np.linalg.norm(along))
+        along = along / n if n > 1e-9 else np.array([1.0, 0.0])
+        return 1e-3 * (along[0] * wall.tangent + along[1] * up)
+    fa, fb = state.footprint(this), state.footprint(other)
+    mtv = separating_vector(fa, fb)
+    norm = float(np.linalg.norm(mtv))
+    if norm < 1e-9:  # footprints only touch, yet meshes cross: push along the centre offset
+        d = (state.centre(this) - state.centre(other))[:2]
+        mtv = d / np.linalg.norm(d) * 1e-3 if np.linalg.norm(d) > 1e-9 else np.array([1e-3, 0.0])
+        norm = 1e-3
+    total = mtv * (norm + cfg.contact_gap) / norm
+    return np.array([total[0], total[1], 0.0])

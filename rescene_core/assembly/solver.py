@@ -9,8 +9,10 @@ Dual attachment (``dual_attachment``): the wall-aware branch uses every edge and
 the floor-only branch leaves ``mounts-on wall`` edges and the wall refinements out. Per group (an object
 on a structural root together with everything it carries) the wall-aware result is kept unless
   (a) the group holds a ``mounts-on wall`` edge with confidence below ``wall_confidence_min``, or
-  (b) in the wall-aware result the group is in more collisions plus out-of-room objects than in the
-      floor-only result.
+  (b) in the wall-aware result the group has more problems than in the floor-only result, counting
+      collisions, out-of-room objects and, for the floor-only result, every ``mounts-on wall`` edge of
+      the group (that branch leaves them unattached by construction), so a confident wall mount is not
+      traded for a single collision.
 When any group takes the floor-only result, depenetration and the containment check run once more on
 the merged layout.
 """
@@ -85,6 +87,9 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
     groups: dict[InstanceId, list[InstanceId]] = defaultdict(list)
     for i in wall.objects:
         groups[forest.root_of(i)].append(i)
+        edge = forest.edges.get(i)
+        if edge is not None and edge.relation is Relation.MOUNTS_ON and edge.parent is Root.WALL:
+            floor_score[forest.root_of(i)] += 1
     switched = False
     for root, members in sorted(groups.items()):
         weak = [
