@@ -325,6 +325,9 @@ class SceneGraphConfig(_Section):
     """Fewest visible points of an instance to reason about it geometrically."""
     wall_max_depth: float = 0.15
     """Geometric backend: a thing hung on a wall spans at most this distance off the wall in one view (m)."""
+    wall_flush_tol: float = 0.08
+    """Geometric backend: a thing whose visible points lie in bulk (median) this close to a wall plane, spanning
+    at most wall_max_depth off it, is flat against the wall and hangs on it whatever is beneath (m)."""
     floor_sigma: float = 0.05
     """Fusion: floor-contact prior falls off as exp(-(gap/sigma)^2) with the bottom-to-floor gap (m)."""
     wall_sigma: float = 0.10
@@ -402,10 +405,12 @@ class AttachmentConfig(_Section):
     """Near-wall snap only moves floor objects with at least this footprint area (m^2, 'large furniture')."""
     containment_tolerance: float = 0.01
     """A footprint this far (m) beyond the floor polygon still counts as inside."""
-    completion_min_excess: float = 0.20
+    completion_min_excess: float | None = None
     """Generated assets: a crossing of a wall or of the floor polygon deeper than this (m), with the object's
     centre inside, is read as a completion error and left alone; a shallower one is a pose or size error
-    and is repaired like an exact shape's (more than registration centre error plus lift extent error)."""
+    and is repaired like an exact shape's. None (default): every crossing is repaired, so nothing is left
+    through a wall (a simulator cannot load a bed through a wall); set it (0.20 was the earlier default)
+    for a generator whose completions are much deeper than its objects."""
     contact_closure_min_confidence: float = 0.60
     """Edges at least this confident get their contact (floor, support face, wall plane) closed in full
     after the confidence-scaled update; below it the contact is scaled by omega like the rest (the paper's

@@ -87,7 +87,8 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
             # generated asset reaching deep beyond the polygon with its centre inside: only the part inside
             # the room counts (a completion error, evidence.py); a shallow crossing is repaired in full
             centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))
-            deep = polygon_excursion(room.polygon, fp) > cfg.completion_min_excess
+            excess = cfg.completion_min_excess
+            deep = excess is not None and polygon_excursion(room.polygon, fp) > excess
             if deep and centre_inside_polygon(room.polygon, centre):
                 core = fp.intersection(inner)
                 fp = core.convex_hull if not core.is_empty and core.area > 0 else fp

@@ -163,7 +163,8 @@ def compile_wall(
     moved = apply(correction @ pose, obj.vertices)
     gap = float(wall.distance(moved).min())
     centre_in_front = centre_inside_wall(wall, 0.5 * (moved.min(axis=0) + moved.max(axis=0)))
-    if gap < 0.0 and not obj.exact_shape and centre_in_front and -gap > cfg.completion_min_excess:
+    excess = cfg.completion_min_excess
+    if gap < 0.0 and not obj.exact_shape and centre_in_front and excess is not None and -gap > excess:
         gap = 0.0  # deep penetration of a generated asset whose centre is in front: completion, in contact
     push = -gap
     centre = 0.5 * (moved.min(axis=0) + moved.max(axis=0))

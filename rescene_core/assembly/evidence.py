@@ -7,8 +7,10 @@ extrudes the seen side), often deeper than the object. Geometry that crosses a w
 polygon while the object's bounding-box centre is inside the room cannot have been seen from inside the
 room: it is a completion error, and moving the object by it moves a well-registered object away from
 where it was seen. Since the `lift` backend stopped over-deepening its completions, most crossings are
-a few centimetres of registration or size error, which the rules must repair; only a crossing deeper than
-``AttachmentConfig.completion_min_excess`` is taken as completion evidence. For such objects:
+a few centimetres of registration or size error, which the rules must repair, and the few deeper ones
+(an oversized bed 0.4 m through a wall) would leave the scene unloadable: by default
+(``AttachmentConfig.completion_min_excess`` None) every crossing is repaired. When it is set, a crossing
+deeper than it is taken as completion evidence. For such objects:
 
 * ``wall_gap``: the gap to a wall is the smallest distance of the mesh, but a penetration deeper than
   ``completion_min_excess`` counts as contact (gap 0) while the centre is in front of the wall;
@@ -65,6 +67,8 @@ def completion_crossing(state: LayoutState, i: InstanceId, depth: float, registe
     registered pose (``registered_depth``, the same boundary): the evidence is the asset as registered,
     so a crossing the solver's own moves made (a depenetration push) is always repaired."""
     excess = state.config.completion_min_excess
+    if excess is None:
+        return False
     return not trusts_full_extent(state, i) and depth > excess and registered_depth > excess
 
 

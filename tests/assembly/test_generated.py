@@ -68,9 +68,10 @@ def test_floating_generated_panel_goes_flat_on_the_wall_without_turning():
 
 def test_generated_panel_whose_completion_crosses_the_wall_stays_where_it_was_seen():
     # the seen panel is 2 cm in front of the wall; the completed prism reaches ~0.25 m into the wall
+    # (a generator with over-deep completions, for which completion_min_excess is set)
     obj, graph, shell = panel_on_wall(gap=0.02)
     assert obj.world_vertices()[:, 1].min() < -0.15
-    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig(completion_min_excess=0.20))
     pose = layout.world_from_asset[obj.instance]
     moved, turned = rigid_change(obj.world_from_asset, pose)
     shift = np.linalg.norm(_centre(obj, pose) - _centre(obj, obj.world_from_asset))
@@ -106,11 +107,19 @@ def test_generated_object_slightly_through_the_wall_is_moved_back_inside():
     assert v[:, 1].min() < 0.05  # moved out by about the crossing, not across the room
 
 
-def test_generated_object_deep_through_the_wall_with_centre_inside_is_left():
+def test_generated_object_deep_through_the_wall_is_moved_inside_by_default():
+    obj, graph, shell = _generated_cabinet(-0.24)
+    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    v = apply(layout.world_from_asset[obj.instance], obj.vertices)
+    assert v[:, 1].min() >= -0.01
+    assert v[:, 1].min() < 0.05
+
+
+def test_generated_object_deep_through_the_wall_is_left_when_read_as_completion():
     # 0.24 m through (centre 1 cm inside): deeper than completion_min_excess, read as completion
     obj, graph, shell = _generated_cabinet(-0.24)
-    assert AttachmentConfig().completion_min_excess < 0.24
-    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig())
+    config = AttachmentConfig(completion_min_excess=0.20)
+    layout = attach({obj.instance: obj}, graph, shell, config)
     shift = np.linalg.norm(_centre(obj, layout.world_from_asset[obj.instance]) - _centre(obj, obj.world_from_asset))
     assert shift < 0.05
 

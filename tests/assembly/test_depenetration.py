@@ -1,0 +1,63 @@
+"""Depenetration movers: support groups move together, wall mounts slide in their wall's plane."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rescene_core.assembly import attach
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.config import AttachmentConfig
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.geometry.sim3 import inverse
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+
+CFG = AttachmentConfig(dual_attachment=False)
+
+
+def test_a_lamp_pushed_by_a_cabinet_takes_its_table_along():
+    shell = rect_room()
+    table = box_object(1, "table", (1.0, 0.6, 0.75), placed(1.5, 2.5))
+    # a generated lamp registered at the table's edge, overhanging it into the cabinet beside the table
+    lamp = box_object(2, "table lamp", (0.3, 0.3, 0.4), placed(1.95, 2.5, 0.75), exact_shape=False)
+    cabinet = box_object(3, "cabinet", (0.6, 0.6, 1.2), placed(2.36, 2.5))
+    objects = {o.instance: o for o in (table, lamp, cabinet)}
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 1.0),
+            Edge(InstanceId(3), Relation.RESTS_ON, Root.FLOOR, 1.0),
+        )
+    )
+    assert structural_metrics(objects, None, graph, shell)["collision_pairs"] == 1
+    layout = attach(objects, graph, shell, CFG)
+    after = structural_metrics(objects, layout, graph, shell)
+    assert after["collision_pairs"] == 0 and after["support_contact_pass"] == 1.0
+    # the lamp did not slide on its table: the table moved with it
+    pose = layout.world_from_asset
+    relative_before = inverse(table.world_from_asset) @ lamp.world_from_asset
+    relative_after = inverse(pose[InstanceId(1)]) @ pose[InstanceId(2)]
+    assert np.allclose(relative_before, relative_after, atol=1e-6)
+    assert np.linalg.norm(pose[InstanceId(1)][:3, 3] - table.world_from_asset[:3, 3]) > 0.02
+
+
+def test_a_picture_hanging_into_a_cabinet_slides_up_its_wall():
+    shell = rect_room()  # wall 0 is y = 0, normal +y
+    cabinet = box_object(1, "cabinet", (0.8, 0.5, 0.8), placed(2.0, 0.25))
+    picture = box_object(2, "picture", (0.7, 0.03, 0.5), placed(2.0, 0.015, 0.7))  # bottom 0.70, cabinet top 0.80
+    objects = {o.instance: o for o in (cabinet, picture)}
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.MOUNTS_ON, Root.WALL, 1.0, wall_id=0),
+        )
+    )
+    assert structural_metrics(objects, None, graph, shell)["collision_pairs"] == 1
+    layout = attach(objects, graph, shell, CFG)
+    after = structural_metrics(objects, layout, graph, shell)
+    assert after["collision_pairs"] == 0
+    assert after["wall_contact_pass"] == 1.0 and after["floor_contact_pass"] == 1.0
+    moves = [op for op in layout.operations if op["stage"] == "depenetration" and op["instance"] == 2]
+    assert moves
+    for op in moves:  # in the wall's plane (x along the wall, z up), never off the wall
+        t = np.asarray(op["transform"])[:3, 3]
+        assert abs(t[1]) < 1e-9 and t[2] > 0.0
