@@ -10,7 +10,10 @@ geometric backend, then three ways of turning them into a graph:
 
 Against the ground truth over capture instances (``GroundTruth.graph_by_instance``): edge_accuracy
 (relation and parent object both right), anchor_resolved_ratio (instances whose parent chain reaches
-floor or wall), uncertain_ratio (edges flagged uncertain) and seconds.
+floor or wall), uncertain_ratio (edges flagged uncertain), seconds, and for full fusion wall_id_accuracy:
+over the ground-truth `mounts-on wall` edges that fusion also hangs on a wall, the fraction whose
+``wall_id`` names the right wall (the estimated shell's walls are matched to the ground-truth walls by
+plane geometry, since the two number their walls independently).
 
 A second run sends the same frames through the `openai` client to a scripted loopback endpoint that
 answers malformed JSON in 30% of calls and the geometric backend's answer otherwise: it measures that the
@@ -34,6 +37,10 @@ from rescene_core.scenegraph.frame import render_overlay
 from rescene_core.scenegraph.loopback import LoopbackServer, Reply, image_url
 from rescene_core.scenegraph.overlay import png_bytes
 
+WALL_MATCH_DEG = 15.0
+"""An estimated wall matches a ground-truth wall when their normals differ by at most this (deg) ..."""
+WALL_MATCH_OFFSET = 0.30
+"""... and their planes by at most this along the normal (m); the nearest such wall is the match."""
 MALFORMED_RATE = 0.30
 """Fraction of loopback calls answered with malformed JSON."""
 VARIANTS = ("single_frame", "vote", "full")
@@ -109,6 +116,47 @@ def edge_accuracy(edges: dict[int, tuple], gt_graph: SceneGraph, object_of: dict
         elif not isinstance(got[1], Root):
             right += object_of.get(int(got[1])) == object_of.get(int(e.parent))
     return right / len(gt_graph.edges) if gt_graph.edges else 1.0
+
+
+def match_walls(estimated, truth) -> dict[int, int]:
+    """Estimated wall id -> ground-truth wall id, matched by plane geometry (normal within WALL_MATCH_DEG,
+    offset within WALL_MATCH_OFFSET, nearest offset first; segments' midpoints break ties). Unmatched
+    estimated walls are left out."""
+    import numpy as np
+
+    out = {}
+    cos_tol = np.cos(np.deg2rad(WALL_MATCH_DEG))
+    for w in estimated.walls:
+        n = np.asarray(w.plane.normal, np.float64)
+        mid = np.mean(np.asarray(w.segment, np.float64), axis=0)
+        best, best_key = None, None
+        for g in truth.walls:
+            if float(n @ np.asarray(g.plane.normal, np.float64)) < cos_tol:
+                continue
+            off = abs(float(w.plane.offset) - float(g.plane.offset))
+            if off > WALL_MATCH_OFFSET:
+                continue
+            key = (round(off, 2), float(np.linalg.norm(np.mean(np.asarray(g.segment, np.float64), axis=0) - mid)))
+            if best_key is None or key < best_key:
+                best, best_key = g.id, key
+        if best is not None:
+            out[int(w.id)] = int(best)
+    return out
+
+
+def wall_id_accuracy(graph: SceneGraph, gt_graph: SceneGraph, wall_map: dict[int, int]) -> tuple[float | None, int]:
+    """(fraction right, count) over ground-truth mounts-on-wall edges that ``graph`` also hangs on a wall:
+    right when the edge's wall_id maps (``wall_map``: its shell's id -> ground-truth id) to the ground
+    truth's wall. None when there are no such edges."""
+    got = {int(e.child): e for e in graph.edges}
+    right = total = 0
+    for e in gt_graph.edges:
+        g = got.get(int(e.child))
+        if e.parent != Root.WALL or e.wall_id is None or g is None or g.parent != Root.WALL:
+            continue
+        total += 1
+        right += g.wall_id is not None and wall_map.get(int(g.wall_id)) == int(e.wall_id)
+    return (right / total if total else None), total
 
 
 def _loopback_run(capture, frames, shell, geometric: list[FramePrediction], seed: int) -> dict[str, Any]:
@@ -211,11 +259,30 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
         }
         if variant == "full":
             out["full"]["errors"] = _errors(edges, gt_graph, object_of, capture)
+            wall_map = match_walls(shell, gt.shell)
+            acc, n = wall_id_accuracy(graph, gt_graph, wall_map)
+            out["full"]["wall_id_accuracy"] = acc
+            out["full"]["wall_edges"] = n
+            out["full"]["wall_id_errors"] = _wall_errors(graph, gt_graph, wall_map, capture)
     loop = _loopback_run(capture, frames, shell, preds, seed)
     edges = {int(e.child): (e.relation, e.parent) for e in loop.pop("graph").edges}
     loop["edge_accuracy"] = edge_accuracy(edges, gt_graph, object_of)
     loop["seconds"] = round(loop["seconds"], 3)
     out["loopback_malformed_30"] = loop
+    return out
+
+
+def _wall_errors(graph, gt_graph, wall_map, capture) -> list[str]:
+    """Wall edges of ``graph`` on the wrong wall (ground-truth wall ids)."""
+    got = {int(e.child): e for e in graph.edges}
+    out = []
+    for e in gt_graph.edges:
+        g = got.get(int(e.child))
+        if e.parent == Root.WALL and g is not None and g.parent == Root.WALL and e.wall_id is not None:
+            have = None if g.wall_id is None else wall_map.get(int(g.wall_id))
+            if have != int(e.wall_id):
+                label = capture.instance(int(e.child)).label
+                out.append(f"{label}#{int(e.child)}: want wall {e.wall_id}, got {have} (shell wall {g.wall_id})")
     return out
 
 
@@ -256,6 +323,10 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
             k: (None if rows[0][k] is None else round(sum(r[k] for r in rows) / len(rows), 4))
             for k in ("edge_accuracy", "anchor_resolved_ratio", "uncertain_ratio", "seconds")
         }
+    right = sum(r["full"]["wall_id_accuracy"] * r["full"]["wall_edges"] for r in per_seed if r["full"]["wall_edges"])
+    n_wall = sum(r["full"]["wall_edges"] for r in per_seed)
+    summary["full"]["wall_id_accuracy"] = round(right / n_wall, 4) if n_wall else None
+    summary["full"]["wall_edges"] = n_wall
     loops = [r["loopback_malformed_30"] for r in per_seed]
     summary["loopback_malformed_30"] = {
         "edge_accuracy": round(sum(r["edge_accuracy"] for r in loops) / len(loops), 4),
@@ -284,6 +355,11 @@ def table(result: dict[str, Any]) -> str:
         unc = "-" if r["uncertain_ratio"] is None else f"{r['uncertain_ratio']:.3f}"
         lines.append(
             f"{v:<14} {r['edge_accuracy']:>9.3f} {r['anchor_resolved_ratio']:>8.3f} {unc:>10} {r['seconds']:>8.2f}"
+        )
+    if s["full"].get("wall_id_accuracy") is not None:
+        lines.append(
+            f"full fusion wall_id accuracy {s['full']['wall_id_accuracy']:.3f} "
+            f"over {s['full']['wall_edges']} wall edges hung on a wall"
         )
     lb = s["loopback_malformed_30"]
     lines.append(

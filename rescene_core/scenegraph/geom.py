@@ -17,6 +17,9 @@ a count, not a quantile, because the points near a contact are few (the contact 
 EXTREME_FRACTION = 0.002
 WALL_LATERAL_MARGIN = 0.10
 """Points within this distance beyond a wall segment's ends still count as in front of it (m)."""
+SPAN_QUANTILE = 0.10
+"""The bulk of an instance's points (this quantile to 1 - it) measures how far it spans off a wall: mask
+edges bleed onto the wall behind and onto far surfaces, so the extremes are not used."""
 
 
 def floor_only_shell(capture: Capture) -> RoomShell:
@@ -83,6 +86,41 @@ def wall_fit(points: NDArray, wall: WallPlane) -> tuple[float, float]:
     s = (np.asarray(points)[:, :2] - [x0, y0]) @ (seg / length)
     lateral = float(np.mean((s >= -WALL_LATERAL_MARGIN) & (s <= length + WALL_LATERAL_MARGIN)))
     return abs(residual), lateral
+
+
+def wall_back(points: NDArray, wall: WallPlane) -> float:
+    """Robust distance (m) of an instance's back surface to a wall plane: |the SPAN_QUANTILE quantile of the
+    points' signed distances| (inf when empty). Unlike ``wall_fit``'s count-based extreme it ignores the
+    few stray points an instance's cloud carries (mask edges bled onto the wall, mixed depth at silhouettes,
+    mislabelled pixels far away), which can sit right at a wrong wall or behind the right one; it includes
+    part of the object's thickness (a few cm for things hung on a wall)."""
+    if not len(points):
+        return float("inf")
+    return float(abs(np.quantile(wall.plane.signed_distance(points), SPAN_QUANTILE)))
+
+
+def wall_flush(points: NDArray, shell: RoomShell, min_lateral: float = 0.5) -> tuple[WallPlane | None, float, float]:
+    """The wall the points lie flat against: among the walls they stand in front of, the one whose plane is
+    nearest to their bulk. Returns (wall, |median signed distance| of the points to its plane in m, their
+    spread along its normal in m: the SPAN_QUANTILE to 1 - SPAN_QUANTILE range); (None, inf, inf) when
+    they stand in front of no wall.
+
+    Unlike ``wall_fit``'s back surface, the median measures where the object's bulk is: a picture's or a
+    mirror's points lie within its thickness of the wall, a monitor's or a lamp's stand well in front of it
+    even when their backs touch the wall.
+    """
+    best, best_d, best_span = None, float("inf"), float("inf")
+    pts = np.asarray(points, dtype=np.float64)
+    if not len(pts):
+        return best, best_d, best_span
+    for wall in shell.walls:
+        if wall_fit(pts, wall)[1] < min_lateral:
+            continue
+        d = wall.plane.signed_distance(pts)
+        lo, mid, hi = np.quantile(d, [SPAN_QUANTILE, 0.5, 1.0 - SPAN_QUANTILE])
+        if abs(mid) < best_d:
+            best, best_d, best_span = wall, float(abs(mid)), float(hi - lo)
+    return best, best_d, best_span
 
 
 def nearest_wall(points: NDArray, shell: RoomShell, min_lateral: float = 0.5) -> tuple[WallPlane | None, float]:

@@ -4,13 +4,17 @@ For each visible instance it looks only at the points this frame sees (its maske
 or its point cloud restricted to the pixels of its mask here) and at the other instances visible here:
 
 1. its lowest visible points touch the floor plane -> rests-on floor;
-2. a visible instance that starts lower has upward-facing surface points at the child's bottom height,
+2. it lies flat against a wall: the bulk of its points (median) within ``wall_flush_tol`` of a wall plane
+   it stands in front of, spanning at most ``wall_max_depth`` off it -> mounts-on wall, whatever is
+   beneath it (a picture hung just above a sofa back or a wall shelf nearly touches that upward face; a
+   thing standing on furniture against a wall keeps its bulk further out);
+3. a visible instance that starts lower has upward-facing surface points at the child's bottom height,
    under the child's footprint -> rests-on that instance (largest footprint overlap);
-3. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
+4. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
    on a wall (spanning at most ``wall_max_depth`` off the wall) -> rests-on floor (its base is out of
    view, not absent);
-4. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
-5. otherwise the highest visible instance beneath it, else the nearer of floor and wall.
+5. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
+6. otherwise the highest visible instance beneath it, else the nearer of floor and wall.
 
 Occlusion and partial views make frames disagree, as a VLM's answers do; fusion reconciles them.
 It answers in the prompt's JSON format and does no A/B re-ranking.
@@ -25,21 +29,20 @@ from rescene_core.config import SceneGraphConfig
 from rescene_core.records import Relation, Root
 from rescene_core.scenegraph.backend import Query
 from rescene_core.scenegraph.geom import (
+    SPAN_QUANTILE,
     floor_only_shell,
     heights,
     lower_surface,
     nearest_wall,
     upper_surface,
     upward_mask,
+    wall_flush,
 )
 from rescene_core.scenegraph.prompt import answer_json
 from rescene_core.scenegraph.view import visible_points
 
 OCCLUSION_DEPTH_MARGIN = 0.02
 """A pixel below an instance hides its base when it shows something nearer by more than this (m)."""
-SPAN_QUANTILE = 0.10
-"""The bulk of an instance's points (this quantile to 1 - it) measures how far it spans off a wall: mask
-edges bleed onto the wall behind and onto far surfaces, so the extremes are not used."""
 OCCLUSION_ROWS = 2
 """How many pixels below an instance's lowest mask pixel (per image column) are inspected."""
 
@@ -100,6 +103,9 @@ class GeometricPredictor:
             return Relation.RESTS_ON.value, Root.FLOOR.value
         if b <= cfg.floor_contact_tol:
             return Relation.RESTS_ON.value, Root.FLOOR.value
+        flush, flush_d, flush_span = wall_flush(p, shell)
+        if flush is not None and flush_d <= cfg.wall_flush_tol and flush_span <= cfg.wall_max_depth:
+            return Relation.MOUNTS_ON.value, Root.WALL.value
         xy = p[:, :2]
         best, best_key = None, None
         below = []

@@ -6,8 +6,15 @@ meshes. Every score is in [0, 1].
 - floor parent: floor contact = exp(-(gap / floor_sigma)^2) x fraction of the footprint inside the floor
   polygon, gap = |height of the lower contact surface above the floor plane|;
 - wall parent: wall alignment = max over walls of exp(-(residual / wall_sigma)^2) x normal agreement x
-  lateral fraction, residual = distance of the back surface to the wall plane, normal agreement = how
-  well the footprint's minimum-area rectangle lines up with the wall (cos 2 delta, clipped at 0);
+  lateral fraction, residual = robust distance of the back surface to the wall plane (``geom.wall_back``:
+  the 10% quantile of the points' distances, so stray points do not decide it), normal agreement = how
+  well the footprint's minimum-area rectangle lines up with the wall: (1 - e) |cos 2 phi| + e max(0,
+  -cos 2 phi), phi the angle between the rectangle's long side and the wall normal, e = 1 - short / long
+  side its elongation. A near-square footprint may face any of its four sides to the wall (the first
+  term, modulo 90 deg); an elongated one hangs with its long side along the wall and its thin axis along
+  the wall normal (the second term, modulo 180 deg), which tells apart the two walls of a corner that a
+  picture or a shelf touches (its side edge lies against the perpendicular wall as closely as its back
+  against its own). The argmax wall is the edge's wall_id;
 - object parent: support = exp(-(gap / support_sigma)^2) x the fraction of the child's contact footprint
   above an upward-facing face of the parent at the child's bottom height.
 
@@ -29,7 +36,7 @@ from shapely.geometry import MultiPoint
 from rescene_core.capture import Capture
 from rescene_core.config import SceneGraphConfig
 from rescene_core.records import InstanceId, Parent, RoomShell, Root
-from rescene_core.scenegraph.geom import heights, lower_surface, upper_surface, upward_mask, wall_fit
+from rescene_core.scenegraph.geom import heights, lower_surface, upper_surface, upward_mask, wall_back, wall_fit
 
 CONTACT_BAND_RATIO = 0.2
 """The contact footprint is the child's points within max(support_tol, this x its height) of its bottom."""
@@ -44,7 +51,8 @@ class InstanceGeometry:
     points: float64 [n, 3] world metres (subsampled). height: [n] above the floor plane.
     upward: bool [n], points whose estimated normal is within upward_normal_deg of vertical.
     bottom, top: robust lowest / highest height (m). inside: fraction of points inside the floor polygon.
-    yaw: orientation of the footprint's minimum-area rectangle (rad), or None when degenerate.
+    yaw: direction of the long side of the footprint's minimum-area rectangle (rad, world xy), or None
+    when degenerate. elongation: 1 - short side / long side of that rectangle, in [0, 1] (0 = square).
     """
 
     instance: InstanceId
@@ -55,19 +63,37 @@ class InstanceGeometry:
     top: float
     inside: float
     yaw: float | None
+    elongation: float = 0.0
 
     @property
     def empty(self) -> bool:
         return len(self.points) == 0
 
 
-def _yaw(xy: NDArray) -> float | None:
+def footprint_axes(xy: NDArray) -> tuple[float | None, float]:
+    """(yaw of the long side in rad, elongation = 1 - short / long side) of the minimum-area rectangle of
+    the points ``xy`` [n, 2] (shapely); (None, 0) when the rectangle is degenerate."""
     rect = MultiPoint(xy).minimum_rotated_rectangle
     if rect.geom_type != "Polygon":
-        return None
+        return None, 0.0
     c = np.asarray(rect.exterior.coords)
-    e = c[1] - c[0]
-    return float(np.arctan2(e[1], e[0])) if np.linalg.norm(e) > 1e-9 else None
+    e1, e2 = c[1] - c[0], c[2] - c[1]
+    l1, l2 = float(np.linalg.norm(e1)), float(np.linalg.norm(e2))
+    if max(l1, l2) < 1e-9:
+        return None, 0.0
+    long_side = e1 if l1 >= l2 else e2
+    return float(np.arctan2(long_side[1], long_side[0])), 1.0 - min(l1, l2) / max(l1, l2)
+
+
+def normal_agreement(child: InstanceGeometry, wall_normal: NDArray) -> float:
+    """How well the child's footprint lines up with a wall of horizontal normal ``wall_normal`` (see the
+    module docstring), in [0, 1]; 1 when the footprint is degenerate (no orientation to compare)."""
+    if child.yaw is None:
+        return 1.0
+    phi = float(np.arctan2(wall_normal[1], wall_normal[0])) - child.yaw
+    c2 = float(np.cos(2 * phi))  # +1: long side along the normal, -1: long side along the wall
+    e = float(np.clip(child.elongation, 0.0, 1.0))
+    return (1.0 - e) * abs(c2) + e * max(0.0, -c2)
 
 
 def instance_geometry(
@@ -87,6 +113,7 @@ def instance_geometry(
     upward = upward_mask(pts, shell, config.normal_neighbours, config.upward_normal_deg)
     polygon = shell.polygon().buffer(POLYGON_TOLERANCE) if len(shell.floor_polygon) >= 3 else None
     inside = float(shapely.contains_xy(polygon, pts[:, 0], pts[:, 1]).mean()) if polygon is not None else 1.0
+    yaw, elongation = footprint_axes(pts[:, :2])
     return InstanceGeometry(
         iid,
         pts,
@@ -95,7 +122,8 @@ def instance_geometry(
         lower_surface(h),
         upper_surface(h),
         inside,
-        _yaw(pts[:, :2]),
+        yaw,
+        elongation,
     )
 
 
@@ -111,18 +139,14 @@ def floor_contact(child: InstanceGeometry, config: SceneGraphConfig) -> float:
 
 
 def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraphConfig) -> tuple[float, int | None]:
-    """G for (child, mounts-on, wall): best over walls, and that wall's id."""
+    """G for (child, mounts-on, wall): best over walls, and that wall's id (the edge's wall_id)."""
     best, best_id = 0.0, None
     if child.empty:
         return best, best_id
     for wall in shell.walls:
-        residual, lateral = wall_fit(child.points, wall)
-        if child.yaw is None:
-            agree = 1.0
-        else:
-            wall_yaw = np.arctan2(wall.plane.normal[1], wall.plane.normal[0])
-            delta = abs((wall_yaw - child.yaw + np.pi / 4) % (np.pi / 2) - np.pi / 4)
-            agree = max(0.0, float(np.cos(2 * delta)))
+        lateral = wall_fit(child.points, wall)[1]
+        residual = wall_back(child.points, wall)
+        agree = normal_agreement(child, np.asarray(wall.plane.normal, dtype=np.float64))
         score = _gauss(residual, config.wall_sigma) * agree * lateral
         if score > best:
             best, best_id = score, wall.id

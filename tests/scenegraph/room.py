@@ -63,12 +63,14 @@ def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     return out
 
 
-def room_arrays(frames: int = 8, seed: int = 0) -> CaptureArrays:
+def room_arrays(frames: int = 8, seed: int = 0, boxes: dict | None = None) -> CaptureArrays:
+    """Ray-cast ``boxes`` (default BOXES: id -> (label, structural, extents, centre)) from a ring of cameras."""
+    boxes = BOXES if boxes is None else boxes
     rng = np.random.default_rng(seed)
     scene = o3d.t.geometry.RaycastingScene()
     geometry_to_instance = {}
     colors = {}
-    for iid, (_, _, extents, centre) in BOXES.items():
+    for iid, (_, _, extents, centre) in boxes.items():
         box = trimesh.creation.box(extents=extents)
         box.apply_translation(centre)
         mesh = o3d.t.geometry.TriangleMesh(
@@ -105,7 +107,7 @@ def room_arrays(frames: int = 8, seed: int = 0) -> CaptureArrays:
         rgbs.append(rgb)
     masks_a, depth_a, poses_a = np.stack(masks), np.stack(depths), np.stack(poses)
     clouds = {}
-    for iid in BOXES:
+    for iid in boxes:
         pts = []
         for k in range(frames):
             m = (masks_a[k] == iid) & (depth_a[k] > 0)
@@ -116,7 +118,7 @@ def room_arrays(frames: int = 8, seed: int = 0) -> CaptureArrays:
         p = np.concatenate(pts) if pts else np.zeros((0, 3))
         clouds[iid] = (p.astype(np.float32), np.tile(colors[iid].astype(np.uint8), (len(p), 1)))
     ids, offsets, points, cols = points_to_csr(clouds)
-    instances = tuple(Instance(InstanceId(i), label, structural) for i, (label, structural, _, _) in BOXES.items())
+    instances = tuple(Instance(InstanceId(i), label, structural) for i, (label, structural, _, _) in boxes.items())
     return CaptureArrays(
         scene_id="test-room",
         rgb=np.stack(rgbs),
