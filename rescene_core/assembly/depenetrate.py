@@ -10,8 +10,11 @@ for a floor mover; outlines projected on the wall plane (along the wall and up) 
 which may only slide in its wall's plane, so a picture under a shelf moves down rather than nowhere. The
 pair shares the separation inversely to footprint area, so a lamp yields to a bed. Per iteration a mover
 moves at most ``depenetration_step`` m, a wall-mounted one at most ``wall_tangent_step`` m. A move that
-would take the footprint out of the room is cut back into it. Movers take their descendants along. At
-most ``depenetration_iterations`` iterations; stops early when nothing collides.
+would take the footprint out of the room is cut back into it; a mover that a wall stops that way (less than
+half of its push left) is blocked, and from then on its partners take the whole separation, so a
+nightstand jammed between a bed and a wall makes the bed move instead of shuttling in place. Movers take
+their descendants along. At most ``depenetration_iterations`` iterations; stops early when nothing
+collides.
 """
 
 from __future__ import annotations
@@ -75,6 +78,7 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
     cfg = state.config
     forest = state.forest
     pairs = []
+    blocked: set[InstanceId] = set()  # movers a wall stopped: their partners take the whole separation
     for iteration in range(cfg.depenetration_iterations):
         pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)
         if not pairs:
@@ -89,6 +93,8 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
             wa = fb.area / max(fa.area + fb.area, 1e-12)
             if a in state.unfit or b in state.unfit:
                 wa = 0.0 if a in state.unfit else 1.0
+            elif (ma in blocked) != (mb in blocked):
+                wa = 0.0 if ma in blocked else 1.0
             for mover, this, other, share in ((ma, a, b, wa), (mb, b, a, 1.0 - wa)):
                 if share > 0.0:
                     moves[mover] += share * _separation(state, mover, this, other)
@@ -110,6 +116,8 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                 shift = fit_translation(containment_footprint(state, i), containment_region(state, i))
                 if shift is not None:
                     state.move(i, translation([shift[0], shift[1], 0.0]), stage, "keep inside after push")
+                    if np.linalg.norm(move[:2] + shift) < 0.5 * np.linalg.norm(move[:2]):
+                        blocked.add(i)
     pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)
     return len(pairs)
 

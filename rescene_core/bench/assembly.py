@@ -12,7 +12,8 @@ relations, room shell). Starting poses:
       ground-truth object each instance belongs to.
 Graphs: gt-perturbed uses the ground-truth relations over object ids (wall ids removed, so the solver
 resolves the wall root itself); the registration start is measured twice, with the run's fused graph and
-with the ground-truth relations over instance ids (wall ids removed).
+with the ground-truth relations over instance ids (wall ids removed), and for each graph twice more with
+the ground-truth meshes registered to the same instance points by the same registration (exact shapes).
 Stages: none, relations (relational layer only), repair (+ room/wall repair), full (+ depenetration).
 Per stage: oob_rate, collision_pairs, collision_rate, floor/wall/support contact pass rates,
 pose_err_median (m, bounding-box centre vs ground truth), rot_err_median (deg), seconds (attach only).
@@ -324,15 +325,17 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
     else:
         not_run["registration_start"] = "rescene_core.registration / rescene_core.assets not importable"
     for name in registration_presets:
-        for graph_name in REGISTRATION_GRAPHS:
-            rows = [r for r in registration if r["preset"] == name]
-            if rows:
-                summary[registration_key(name, graph_name)] = {
-                    stage: {
-                        k: _mean([r["graphs"][graph_name][stage][k] for r in rows]) for k in (*METRICS, "pose_err_mean")
+        rows = [r for r in registration if r["preset"] == name]
+        for shapes, field in zip(REGISTRATION_SHAPES, ("graphs", "exact_shapes"), strict=True):
+            for graph_name in REGISTRATION_GRAPHS:
+                if rows:
+                    summary[registration_key(name, graph_name, shapes)] = {
+                        stage: {
+                            k: _mean([r[field][graph_name][stage][k] for r in rows])
+                            for k in (*METRICS, "pose_err_mean")
+                        }
+                        for stage in STAGES
                     }
-                    for stage in STAGES
-                }
     return {
         "summary": summary,
         "registration_scenes": registration,
@@ -349,13 +352,54 @@ REGISTRATION_GRAPHS = ("fused", "gt")
 losses from the graph's."""
 
 
-def registration_key(preset: str, graph: str) -> str:
-    """Summary key of the registration start on ``preset`` with ``graph`` (``registration`` is standard + fused)."""
+REGISTRATION_SHAPES = ("generated", "exact")
+"""Meshes of the registration start: the run's generated assets at their registered poses, and the
+ground-truth meshes registered by the same registration to the same instance points (``exact``), which
+separates what the solver does to good shapes from what generated shapes' errors cost."""
+
+
+def registration_key(preset: str, graph: str, shapes: str = "generated") -> str:
+    """Summary key of the registration start (``registration`` alone: standard preset, fused graph, the
+    run's generated assets)."""
     return (
         "registration"
         + ("" if preset == "standard" else f"_{preset}")
+        + ("" if shapes == "generated" else f"_{shapes}_shapes")
         + ("" if graph == "fused" else f"_{graph}_graph")
     )
+
+
+def exact_shape_objects(capture, gt, instances, cache: Path) -> dict[InstanceId, AssemblyObject]:
+    """Ground-truth meshes registered to each instance's points, as exact shapes (asset frame = the object's
+    own axes, unit-box scaled); poses cached in ``cache`` (JSON). Instances registration misses are left out."""
+    import json
+
+    from rescene_core.assets import unit_box_normalisation
+    from rescene_core.config import RegistrationConfig
+    from rescene_core.geometry import sim3
+    from rescene_core.io import write_json_atomic
+    from rescene_core.records import Asset, Missing
+    from rescene_core.registration import register
+
+    obj_of = gt.object_of_instance()
+    by_id = {o.object_id: o for o in gt.objects}
+    poses = json.loads(cache.read_text()) if cache.exists() else {}
+    out = {}
+    for i in sorted(instances):
+        if int(i) not in obj_of:
+            continue
+        obj = by_id[obj_of[int(i)]]
+        verts = sim3.apply(unit_box_normalisation(obj.vertices), obj.vertices)
+        if str(int(i)) not in poses:
+            asset = Asset(i, verts, np.asarray(obj.faces, np.int64), "gt", {"label": obj.label})
+            pose = register(asset, capture.point_cloud(int(i)), RegistrationConfig())
+            poses[str(int(i))] = None if isinstance(pose, Missing) else np.asarray(pose.world_from_asset).tolist()
+        if poses[str(int(i))] is not None:
+            out[i] = AssemblyObject(
+                i, obj.label, verts, np.asarray(obj.faces, np.int64), np.asarray(poses[str(int(i))]), exact_shape=True
+            )
+    write_json_atomic(cache, poses)
+    return out
 
 
 def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> dict[str, Any]:
@@ -377,7 +421,8 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         cli = Path(sys.executable).with_name("rescene")
         subprocess.run([str(cli), "run", str(capture), "--out", str(run_dir)], check=True, capture_output=True)
     doc = load_scene(run_dir)
-    gt = read_ground_truth(open_capture(capture, validate=False))
+    cap = open_capture(capture, validate=False)
+    gt = read_ground_truth(cap)
     shell = RoomShell.from_json(doc["shell"])
     obj_of = gt.object_of_instance()
     objects = {
@@ -402,6 +447,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "fused": fused_graph,
         "gt": SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in gt_graph.edges)),
     }
+    exact = exact_shape_objects(cap, gt, set(objects), run_dir / "exact_shape_poses.json")
     return {
         "preset": preset,
         "seed": seed,
@@ -409,7 +455,11 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "run_dir": str(run_dir),
         "objects": len(objects),
         "matched_to_gt": len(gt_centre),
+        "exact_shapes_registered": len(exact),
         "graphs": {name: _registration_stages(objects, g, shell, gt_centre) for name, g in graphs.items()},
+        "exact_shapes": {
+            name: _registration_stages(exact, g, shell, {i: gt_centre[i] for i in exact}) for name, g in graphs.items()
+        },
     }
 
 
@@ -449,7 +499,8 @@ def table(result: dict[str, Any]) -> str:
     lines = []
     for name, stages in result["summary"].items():
         if name.startswith("registration"):
-            what = f"registration start, {'ground-truth' if name.endswith('_gt_graph') else 'fused'} graph"
+            shapes = "ground-truth meshes registered" if "_exact_shapes" in name else "generated assets"
+            what = f"registration start, {shapes}, {'ground-truth' if name.endswith('_gt_graph') else 'fused'} graph"
         else:
             what = "gt-perturbed start, gt graph"
         lines.append(f"{name} ({what}, mean over seeds {result.get('seeds')})")

@@ -61,3 +61,18 @@ def test_a_picture_hanging_into_a_cabinet_slides_up_its_wall():
     for op in moves:  # in the wall's plane (x along the wall, z up), never off the wall
         t = np.asarray(op["transform"])[:3, 3]
         assert abs(t[1]) < 1e-9 and t[2] > 0.0
+
+
+def test_a_nightstand_jammed_against_a_wall_makes_the_bed_move():
+    shell = rect_room()  # wall 3 is x = 0
+    bed = box_object(1, "bed", (1.6, 2.0, 0.5), placed(1.25, 2.5))  # x 0.45 .. 2.05
+    nightstand = box_object(2, "nightstand", (0.5, 0.4, 0.55), placed(0.3, 2.5))  # x 0.05 .. 0.55: 0.1 into the bed
+    objects = {o.instance: o for o in (bed, nightstand)}
+    graph = SceneGraph(tuple(Edge(InstanceId(i), Relation.RESTS_ON, Root.FLOOR, 1.0) for i in (1, 2)))
+    assert structural_metrics(objects, None, graph, shell)["collision_pairs"] == 1
+    layout = attach(
+        objects, graph, shell, AttachmentConfig(dual_attachment=False, near_wall_snap=False, bed_wall=False)
+    )
+    after = structural_metrics(objects, layout, graph, shell)
+    assert after["collision_pairs"] == 0 and after["oob_count"] == 0
+    assert layout.world_from_asset[InstanceId(1)][0, 3] > bed.world_from_asset[0, 3] + 0.05
