@@ -5,8 +5,10 @@ normal) grouped into levels of equal height (``support_level_tolerance`` m): a t
 board. A level is feasible when its polygon overlaps the child's footprint; among feasible levels the one
 nearest in height to the child's lowest point wins (the top level when none overlaps). Closed-form
 minimiser: level the child, translate vertically onto the level (at most ``max_support_snap`` m) and
-translate horizontally by the smallest step that puts the footprint on the level's polygon (or its
-centroid, when the footprint is larger than the face).
+horizontally back over its registered centre (the nearest point of the face when that is off it: a child
+registered on its own points is evidence of its own place, not of where its parent's corrections carried
+it); an exact shape then moves by the smallest step that puts its whole footprint on the face (its
+centroid on the face when the footprint is larger than the face).
 """
 
 from __future__ import annotations
@@ -114,14 +116,14 @@ def compile_support(
     feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
     level = min(feasible, key=lambda lv: abs(lv.height - bottom)) if feasible else levels[0]
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
+    # the child's registered centre is the evidence of where it stands (evidence.py), not where its
+    # parent's corrections carried it; an exact shape's whole footprint then goes onto the face
+    shift, how = seen_centre_shift(state, child, moved, level.polygon), "registered centre on face"
     if obj.exact_shape:
-        shift = fit_translation(fp, level.polygon)
-        how = "footprint on face"
-    else:  # generated asset: its registered centre is the evidence of where it stands (evidence.py)
-        shift, how = (
-            seen_centre_shift(state, child, moved, level.polygon),
-            "registered centre on face (generated asset)",
-        )
+        seated = footprint(apply(translation([shift[0], shift[1], 0.0]) @ correction @ pose, obj.vertices))
+        onto = fit_translation(seated, level.polygon)
+        shift = None if onto is None else shift + onto
+        how = "registered centre, footprint on face"
     if shift is None:
         centroid = fp.centroid
         target = centroid if level.polygon.contains(centroid) else nearest_points(level.polygon, centroid)[0]

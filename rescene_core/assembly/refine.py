@@ -193,18 +193,18 @@ def find_unfit(state: LayoutState) -> frozenset[InstanceId]:
 
 
 def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None:
-    """Put generated children resting on objects back on their parents' support faces after the repairs.
+    """Put children resting on objects back on their parents' support faces after the repairs.
 
     A repair that turns or moves a parent takes its children along (a dining table squared to a wall by
-    19 deg swings a monitor near its edge by ~0.4 m), but a generated child was registered on its own
-    points: ``compile_support`` puts it back over its registered centre (or the nearest point of the face)
-    at the face's height. Exact shapes keep where their parents took them. Parents before children."""
+    19 deg swings a monitor near its edge by ~0.4 m), but a child was registered on its own points:
+    ``compile_support`` puts it back over its registered centre (or the nearest point of the face) at the
+    face's height. Parents before children."""
     from rescene_core.assembly.compile_support import compile_support
 
     for child, edge in state.forest.edges.items():
         if isinstance(edge.parent, Root) or edge.relation is not Relation.RESTS_ON:
             continue
-        if state.objects[child].exact_shape or child in state.unfit:
+        if child in state.unfit:
             continue
         correction, info = compile_support(state, child, edge)
         if correction is None or np.allclose(correction, np.eye(4), atol=1e-6):
