@@ -83,6 +83,7 @@ def baseline_register(asset, target, config) -> tuple[np.ndarray | None, str]:
 
     from rescene_core.geometry import sim3
     from rescene_core.registration.init import Normalisation, _prepare
+    from rescene_core.registration.open3d_rng import seeded_open3d_rng
 
     reg = o3d.pipelines.registration
     source = trimesh.sample.sample_surface(
@@ -101,19 +102,19 @@ def baseline_register(asset, target, config) -> tuple[np.ndarray | None, str]:
     src_down, src_feat = _prepare(src_n, voxel, config)
     tgt_down, tgt_feat = _prepare(tgt_n, voxel, config)
     distance = config.ransac_distance_voxels * voxel
-    o3d.utility.random.seed(config.seed)
-    ransac = reg.registration_ransac_based_on_feature_matching(
-        src_down,
-        tgt_down,
-        src_feat,
-        tgt_feat,
-        True,
-        distance,
-        reg.TransformationEstimationPointToPoint(True),
-        3,
-        [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9), reg.CorrespondenceCheckerBasedOnDistance(distance)],
-        reg.RANSACConvergenceCriteria(config.ransac_iterations * config.ransac_restarts, config.ransac_confidence),
-    )
+    with seeded_open3d_rng(config.seed):
+        ransac = reg.registration_ransac_based_on_feature_matching(
+            src_down,
+            tgt_down,
+            src_feat,
+            tgt_feat,
+            True,
+            distance,
+            reg.TransformationEstimationPointToPoint(True),
+            3,
+            [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9), reg.CorrespondenceCheckerBasedOnDistance(distance)],
+            reg.RANSACConvergenceCriteria(config.ransac_iterations * config.ransac_restarts, config.ransac_confidence),
+        )
     icp = reg.registration_icp(
         o3d.geometry.PointCloud(o3d.utility.Vector3dVector(src_n)),
         o3d.geometry.PointCloud(o3d.utility.Vector3dVector(tgt_n)),

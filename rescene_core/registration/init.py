@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
+from rescene_core.registration.open3d_rng import seeded_open3d_rng
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,11 @@ def feature_correspondences(source_feature, target_feature) -> NDArray[np.int32]
     return np.asarray(match, dtype=np.int32).reshape(-1, 2)
 
 
+def ransac_seed(config: RegistrationConfig, restart: int) -> int:
+    """Seed of Open3D's random engine for RANSAC restart ``restart`` (0-based): ``config.seed + restart``."""
+    return int(config.seed) + int(restart)
+
+
 def fpfh_ransac_candidates(
     source: NDArray[np.float64],
     target: NDArray[np.float64],
@@ -86,12 +92,15 @@ def fpfh_ransac_candidates(
     target_norm: Normalisation,
     config: RegistrationConfig,
     stop: Callable[[sim3.Matrix4], bool] | None = None,
+    seeds: list[int] | None = None,
 ) -> list[sim3.Matrix4]:
-    """One world_from_asset candidate per RANSAC restart (restart r uses seed ``config.seed + r``).
+    """One world_from_asset candidate per RANSAC restart (restart r uses seed ``ransac_seed(config, r)``,
+    drawn under ``seeded_open3d_rng``, so concurrent registrations in other threads cannot change it).
 
     ``stop``, when given, sees each valid candidate as soon as its restart ends; returning True skips
     the remaining restarts (early exit once a candidate is clearly good). The features and their mutual
-    matches are computed once and shared by the restarts.
+    matches are computed once and shared by the restarts. ``seeds``, when given, receives the seed of
+    every restart that ran (for the diagnostics).
 
     source: float64 [n, 3] asset frame; target: float64 [m, 3] world metres. Invalid candidates
     (not a similarity with positive scale) are dropped here.
@@ -109,20 +118,24 @@ def fpfh_ransac_candidates(
     corres = o3d.utility.Vector2iVector(feature_correspondences(src_feat, tgt_feat))
     out: list[sim3.Matrix4] = []
     for restart in range(config.ransac_restarts):
-        o3d.utility.random.seed(config.seed + restart)
-        result = reg.registration_ransac_based_on_correspondence(
-            src_down,
-            tgt_down,
-            corres,
-            distance,
-            reg.TransformationEstimationPointToPoint(True),
-            ransac_n,
-            [
-                reg.CorrespondenceCheckerBasedOnEdgeLength(config.ransac_edge_length),
-                reg.CorrespondenceCheckerBasedOnDistance(distance),
-            ],
-            reg.RANSACConvergenceCriteria(config.ransac_iterations, config.ransac_confidence),
-        )
+        # Open3D's random engine is one per process and RANSAC releases the GIL: seeding and drawing
+        # happen under a process-wide lock so concurrent registrations cannot reseed or share the stream.
+        with seeded_open3d_rng(ransac_seed(config, restart)) as seed:
+            if seeds is not None:
+                seeds.append(seed)
+            result = reg.registration_ransac_based_on_correspondence(
+                src_down,
+                tgt_down,
+                corres,
+                distance,
+                reg.TransformationEstimationPointToPoint(True),
+                ransac_n,
+                [
+                    reg.CorrespondenceCheckerBasedOnEdgeLength(config.ransac_edge_length),
+                    reg.CorrespondenceCheckerBasedOnDistance(distance),
+                ],
+                reg.RANSACConvergenceCriteria(config.ransac_iterations, config.ransac_confidence),
+            )
         tn_from_sn = np.asarray(result.transformation, dtype=np.float64)
         if sim3.check_sim3(tn_from_sn, atol=1e-5):
             continue

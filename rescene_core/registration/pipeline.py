@@ -347,8 +347,9 @@ def register_detailed(
                 consider(snapped, f"fpfh_ransac[{k}]+upright")
         return any(fit.inlier_ratio >= config.ransac_early_exit_inlier_ratio for _, fit, _ in accepted)
 
+    seeds: list[int] = []
     try:
-        candidates = fpfh_ransac_candidates(source, tgt, src_norm, tgt_norm, config, stop=process)
+        candidates = fpfh_ransac_candidates(source, tgt, src_norm, tgt_norm, config, stop=process, seeds=seeds)
         diag["ransac_error"] = None
     except Exception as err:  # an Open3D failure leaves the normalisation pose as initialisation
         candidates = []
@@ -356,6 +357,9 @@ def register_detailed(
     for cand in candidates[processed:]:  # candidates not yet seen by the stop callback
         process(cand)
     diag["ransac_restarts_run"] = processed
+    # every random draw is seeded: source samples and target subsample by config.seed (numpy), RANSAC
+    # restart r by config.seed + r (Open3D's engine, held under a process-wide lock while it draws)
+    diag["seeds"] = {"sampling": int(config.seed), "ransac": seeds}
     if not accepted:
         record = {"source": "normalisation", "pose": _pose_json(reference), "fit": reference_fit.to_json()}
         candidates_json.append(record)
