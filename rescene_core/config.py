@@ -222,7 +222,7 @@ class RegistrationConfig(_Section):
     """RANSAC iterations per restart of the FPFH initialisation (several short restarts beat one long run)."""
     seed: int = 0
     """Seed of the sampling and RANSAC: source samples and target subsample use it (numpy), RANSAC restart r
-    seeds Open3D's process-wide engine with seed + r under a lock (registration/open3d_rng.py); the seeds
+    seeds Open3D's process-wide engine with seed + r under a lock (geometry/open3d_rng.py); the seeds
     used are recorded in pose.json (diagnostics 'seeds')."""
     max_target_points: int = 3000
     """Target points kept (seeded random subsample) for registration; bounds the time per instance."""

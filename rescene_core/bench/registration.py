@@ -82,8 +82,8 @@ def baseline_register(asset, target, config) -> tuple[np.ndarray | None, str]:
     import trimesh
 
     from rescene_core.geometry import sim3
+    from rescene_core.geometry.open3d_rng import seeded_open3d_rng
     from rescene_core.registration.init import Normalisation, _prepare
-    from rescene_core.registration.open3d_rng import seeded_open3d_rng
 
     reg = o3d.pipelines.registration
     source = trimesh.sample.sample_surface(

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
-from rescene_core.registration.open3d_rng import seeded_open3d_rng
+from rescene_core.geometry.open3d_rng import seeded_open3d_rng
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from shapely.ops import polygonize, unary_union
 
 from rescene_core.capture import Capture
 from rescene_core.config import ShellConfig
+from rescene_core.geometry.open3d_rng import seeded_open3d_rng
 from rescene_core.records import Plane, RoomShell, WallPlane
 
 log = logging.getLogger(__name__)
@@ -269,7 +270,12 @@ def _polygon(floor_xy: NDArray[np.float64], all_xy: NDArray[np.float64], walls: 
 def estimate_shell(capture: Capture, config: ShellConfig | None = None) -> RoomShell:
     """The room shell of a capture (see the module docstring). Raises ShellError when there are no points."""
     config = config or ShellConfig()
-    o3d.utility.random.seed(config.seed)
+    # RANSAC plane fits draw from Open3D's process-wide engine: seed it and keep it to this thread
+    with seeded_open3d_rng(config.seed):
+        return _estimate_shell(capture, config)
+
+
+def _estimate_shell(capture: Capture, config: ShellConfig) -> RoomShell:
     points, point_ids = capture.all_points()
     finite = np.isfinite(points).all(axis=1)
     points, point_ids = points[finite].astype(np.float64), point_ids[finite]
