@@ -448,6 +448,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "gt": SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in gt_graph.edges)),
     }
     exact = exact_shape_objects(cap, gt, set(objects), run_dir / "exact_shape_poses.json")
+    _draw_registration_plan(work_dir / "plans" / f"registration_{preset}_{seed}.png", shell, objects, graphs["fused"])
     return {
         "preset": preset,
         "seed": seed,
@@ -461,6 +462,19 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
             name: _registration_stages(exact, g, shell, {i: gt_centre[i] for i in exact}) for name, g in graphs.items()
         },
     }
+
+
+def _draw_registration_plan(path: Path, shell: RoomShell, objects: dict, graph: SceneGraph) -> None:
+    """Top-down plans of the registered generated assets before and after the full solver (fused graph)."""
+    full = attach(objects, graph, shell, AttachmentConfig())
+    panels = {}
+    for title, poses in (
+        ("registered (before)", {i: o.world_from_asset for i, o in objects.items()}),
+        ("full attachment (after)", full.world_from_asset),
+    ):
+        m = structural_metrics(objects, poses, graph, shell)
+        panels[title] = {"poses": poses, "colliding": m["colliding"], "oob": set(m["oob_objects"])}
+    draw_plan(path, shell, objects, panels)
 
 
 def _registration_stages(objects: dict, graph: SceneGraph, shell: RoomShell, gt_centre: dict) -> dict[str, Any]:
