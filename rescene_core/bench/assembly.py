@@ -419,7 +419,10 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         write_synth(capture, preset=preset, seed=seed)
     if not (run_dir / "scene" / "scene.json").exists():
         cli = Path(sys.executable).with_name("rescene")
-        subprocess.run([str(cli), "run", str(capture), "--out", str(run_dir)], check=True, capture_output=True)
+        done = subprocess.run([str(cli), "run", str(capture), "--out", str(run_dir)], capture_output=True, text=True)
+        if done.returncode != 0:
+            tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
+            raise RuntimeError(f"rescene run {capture} exited {done.returncode}:\n{tail}")
     doc = load_scene(run_dir)
     cap = open_capture(capture, validate=False)
     gt = read_ground_truth(cap)
