@@ -183,6 +183,11 @@ class AssetConfig(_Section):
     """lift: a flat object's slab thickness as a fraction of its outline's longest side."""
     lift_slab_min_m: float = 0.03
     """lift: smallest slab thickness (m) of a flat object."""
+    lift_join_cells: int = 3
+    """lift: the solid keeps its largest connected part, parts less than this many grid cells apart
+    counting as connected; thin legs, stems and depth dropouts split one object into parts a cell or two
+    apart (keeping only the largest left chairs without legs, lamps without a shade), while stray depth
+    pixels form islands farther off (0: strict connectivity, the earlier behaviour)."""
 
 
 class RegistrationConfig(_Section):
@@ -262,6 +267,11 @@ class RegistrationConfig(_Section):
     probe_iterations: int = 15
     """With several accepted candidates, each is first refined for this many ICP iterations and only the
     best by symmetric fitness gets the full ``max_iterations`` from its own initialisation (0 refines all)."""
+    extent_percentile: float = 2.0
+    """Robust extents (%): the normalisation box of the source samples and of the target (its centre and
+    diagonal: the FPFH normalisation, the normalisation pose's scale, the extent ratio of the scale gate,
+    the unit of the ICP distances) spans the per-axis percentiles q to 100 - q, so the few percent of
+    stray points fused into an instance cloud do not stretch it (0: bounding box, the earlier behaviour)."""
 
 
 class SceneGraphConfig(_Section):

@@ -18,7 +18,9 @@
    or obliquely gets its true depth), at most ``lift_max_depth_ratio`` times its visible width.
 5. Silhouette fill: on a grid of ``lift_resolution`` cells along the longest side, each (x, z) column
    is filled between the smallest and largest y of the points in it (the solid the front and the
-   mirrored back enclose), then closed morphologically and meshed by marching cubes: watertight.
+   mirrored back enclose), then closed morphologically and meshed by marching cubes: watertight. Only
+   the largest part is kept, parts within ``lift_join_cells`` cells of each other counting as one
+   (chair legs and lamp stems one or two cells thin must not cut the object in pieces).
 
 What it cannot see it cannot make: a close-up crop (mask touching the image border), a grazing view
 or few depth pixels give a partial, worse asset, as a single-view generator's quality depends on its
@@ -258,8 +260,14 @@ def _remove_outliers(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return points[np.asarray(keep, dtype=np.int64)] if len(keep) >= 0.5 * len(points) else points
 
 
-def solid_from_points(points: NDArray[np.float64], resolution: int) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Watertight mesh (vertices [v, 3], faces [f, 3], same frame as ``points``) of the column-filled solid."""
+def solid_from_points(
+    points: NDArray[np.float64], resolution: int, join: int = 0
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Watertight mesh (vertices [v, 3], faces [f, 3], same frame as ``points``) of the column-filled solid.
+
+    Only the largest connected part is kept, where parts less than ``join`` grid cells apart count as
+    connected (the cells between them stay empty): thin legs, stems and depth dropouts split one object
+    into parts a cell or two apart, while stray depth pixels form islands farther off."""
     from trimesh.voxel.ops import matrix_to_marching_cubes
 
     lo, hi = points.min(axis=0), points.max(axis=0)
@@ -279,12 +287,14 @@ def solid_from_points(points: NDArray[np.float64], resolution: int) -> tuple[NDA
     grid = filled.reshape(dims[0], dims[2], dims[1]).transpose(0, 2, 1)
     grid = ndimage.binary_closing(np.pad(grid, 2), iterations=1)
     grid = ndimage.binary_fill_holes(grid)
-    labels, count = ndimage.label(grid)
-    if count == 0:
+    if not grid.any():
         raise GenerationFailed("no solid left after filling")
-    if count > 1:  # keep the largest connected part: stray depth pixels become no floating islands
+    # keep the largest connected part: stray depth pixels become no floating islands
+    joined = ndimage.binary_dilation(grid, iterations=join) if join > 0 else grid
+    labels, count = ndimage.label(joined)
+    if count > 1:
         sizes = ndimage.sum(grid, labels, index=np.arange(1, count + 1))
-        grid = labels == (1 + int(np.argmax(sizes)))
+        grid = grid & (labels == (1 + int(np.argmax(sizes))))
     mesh = matrix_to_marching_cubes(grid, pitch=pitch)
     vertices = np.asarray(mesh.vertices) + lo - 2 * pitch
     return vertices, np.asarray(mesh.faces, dtype=np.int64)
@@ -334,7 +344,7 @@ class LiftBackend:
             vertices, faces, completion = flat_slab(local, cfg)
         else:
             completed, completion = complete_by_mirror(local, cfg) if cfg.lift_mirror else (local, {"kind": "none"})
-            vertices, faces = solid_from_points(completed, cfg.lift_resolution)
+            vertices, faces = solid_from_points(completed, cfg.lift_resolution, cfg.lift_join_cells)
             vertices, faces = _decimate(vertices, faces, cfg.target_faces)
         mask = np.asarray(view.mask, bool)
         touches = bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())

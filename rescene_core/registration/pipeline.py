@@ -279,8 +279,12 @@ def register_detailed(
     if len(tgt) < config.min_correspondences:
         diag["rejected"] = f"{len(tgt)} target points after cleaning"
         return Missing(instance, STAGE, f"rejected input: {len(tgt)} target points after cleaning"), diag
+    # bounding boxes normalise the clouds for FPFH (the features' scale only); the robust boxes give the
+    # normalisation pose, the extent ratio of the scale gate and the extent unit of the ICP distances
     src_norm, tgt_norm = Normalisation.of(source), Normalisation.of(tgt)
-    extent = tgt_norm.extent
+    src_box = Normalisation.of(source, config.extent_percentile)
+    tgt_box = Normalisation.of(tgt, config.extent_percentile)
+    extent = tgt_box.extent
     evaluator = FitEvaluator(source, tgt, config.max_distance_ratio * extent)
     prior = _prior(asset)
     diag.update(
@@ -291,13 +295,15 @@ def register_detailed(
             "source_samples": len(source),
             "source_normalisation": src_norm.to_json(),
             "target_normalisation": tgt_norm.to_json(),
+            "source_robust_box": src_box.to_json(),
+            "target_robust_box": tgt_box.to_json(),
             "inlier_threshold_m": evaluator.threshold,
             "rotation_gate_reference": "prior" if prior is not None else "gravity-up tilt",
         }
     )
 
     # 1) initialisation candidates, each gated against the normalisation pose
-    reference = normalisation_pose(src_norm, tgt_norm)
+    reference = normalisation_pose(src_box, tgt_box)
     reference_fit = evaluator(reference)
     extent_scale = sim3.parts_from_sim3(reference)[0]
     accepted: list[tuple[sim3.Matrix4, Fit, dict[str, Any]]] = []
@@ -342,7 +348,7 @@ def register_detailed(
         reasons = consider(cand, f"fpfh_ransac[{k}]")
         only_tilt = bool(reasons) and all(r.startswith("init rotation gate") for r in reasons)
         if config.upright_snap and prior is None and only_tilt:
-            snapped = upright_snap(cand, src_norm.centre)
+            snapped = upright_snap(cand, src_box.centre)
             if snapped is not None:
                 consider(snapped, f"fpfh_ransac[{k}]+upright")
         return any(fit.inlier_ratio >= config.ransac_early_exit_inlier_ratio for _, fit, _ in accepted)
