@@ -9,8 +9,9 @@ An edge that already names its wall (``Edge.wall_id``) gets a bonus of half the 
 but a wall the geometry clearly prefers wins (fused graphs name the wrong wall of a corner now and then).
 
 Lateral order (per wall): the along-wall target of each child is its current along-wall position,
-clamped so the object stays ``wall_corner_margin`` m inside the segment ends; when clamping would swap
-two objects, the targets are re-sorted into the original order.
+clamped so the object stays ``wall_corner_margin`` m inside the segment ends; objects side by side keep
+their original order ``contact_gap`` apart (``keep_lateral_order``; objects hanging one above the other
+are left to depenetration).
 
 Closed-form minimiser: level (as for the floor), yaw the back axis onto the outward normal, translate
 along the normal until the back surface lies on the plane, translate along the wall to the lateral target,
@@ -118,14 +119,21 @@ def resolve_walls(state: LayoutState) -> dict[InstanceId, WallChoice]:
 
 
 def keep_lateral_order(along, target, half, lo, hi, heights, gap) -> NDArray[np.float64]:
-    """Along-wall targets (m) in the original order ``along``, with objects whose height ranges overlap
-    kept ``gap`` m apart side by side: a forward pass pushes right, a backward pass pulls back under the
-    upper bounds ``hi``; the lower bounds ``lo`` win when the wall is too short for all of them."""
+    """Along-wall targets (m) in the original order ``along``, with objects side by side kept ``gap`` m
+    apart: a forward pass pushes right, a backward pass pulls back under the upper bounds ``hi``; the lower
+    bounds ``lo`` win when the wall is too short for all of them.
+
+    Two objects are side by side when their height ranges overlap, unless they overlap along the wall by
+    more than they overlap in height: those hang one above the other (a picture over a shelf, 2 cm into
+    it), and sliding one sideways by its whole width to part them would move it far from where it was
+    seen; depenetration parts them in the wall's plane instead."""
     order = np.argsort(along, kind="stable")
     t = np.array(target, dtype=np.float64)
 
     def overlap(a: int, b: int) -> bool:
-        return heights[a][0] < heights[b][1] and heights[b][0] < heights[a][1]
+        vertical = min(heights[a][1], heights[b][1]) - max(heights[a][0], heights[b][0])
+        lateral = half[a] + half[b] - abs(along[a] - along[b])
+        return vertical > 0.0 and (lateral <= 0.0 or vertical > lateral)
 
     for k, i in enumerate(order):
         for j in order[:k]:

@@ -76,3 +76,22 @@ def test_a_nightstand_jammed_against_a_wall_makes_the_bed_move():
     after = structural_metrics(objects, layout, graph, shell)
     assert after["collision_pairs"] == 0 and after["oob_count"] == 0
     assert layout.world_from_asset[InstanceId(1)][0, 3] > bed.world_from_asset[0, 3] + 0.05
+
+
+def test_a_picture_just_under_a_shelf_is_parted_in_the_wall_plane_not_slid_sideways():
+    shell = rect_room()  # wall 0 is y = 0, normal +y
+    shelf = box_object(1, "wall shelf", (0.8, 0.25, 0.2), placed(2.0, 0.125, 1.45))
+    picture = box_object(2, "picture", (0.7, 0.03, 0.5), placed(2.0, 0.015, 0.97))  # top 1.47, shelf bottom 1.45
+    objects = {o.instance: o for o in (shelf, picture)}
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, 1.0, wall_id=0),
+            Edge(InstanceId(2), Relation.MOUNTS_ON, Root.WALL, 1.0, wall_id=0),
+        )
+    )
+    assert structural_metrics(objects, None, graph, shell)["collision_pairs"] == 1
+    layout = attach(objects, graph, shell, CFG)
+    after = structural_metrics(objects, layout, graph, shell)
+    assert after["collision_pairs"] == 0 and after["wall_contact_pass"] == 1.0
+    for i, obj in objects.items():  # parted by centimetres, not by a picture's width along the wall
+        assert np.linalg.norm(layout.world_from_asset[i][:3, 3] - obj.world_from_asset[:3, 3]) < 0.05
