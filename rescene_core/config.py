@@ -413,6 +413,13 @@ class AttachmentConfig(_Section):
     """Support faces within this height of each other form one support level (m)."""
     max_support_snap: float = 1.40
     """Largest vertical move of an object-support snap (m; the floor-snap limit)."""
+    support_inner_tolerance: float | None = 0.15
+    """Generated parents: a child whose registered bottom lies more than this (m) below the parent's top
+    level stands inside the parent, on an inner face (a shelf board) the generated mesh lacks unless it has a
+    level within this distance of the child's bottom; without one the support rule is skipped and the child
+    stays at its registered height (not lifted onto the top). Shelf boards are 0.25-0.4 m apart, registration
+    sinks a child by at most a few centimetres. None: the nearest level of the mesh, or its top, as for exact
+    parents (the support contact then passes, on a face 1-2 m from where the child was seen)."""
     near_wall_min_footprint: float = 0.25
     """Near-wall snap only moves floor objects with at least this footprint area (m^2, 'large furniture')."""
     containment_tolerance: float = 0.01

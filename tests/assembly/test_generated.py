@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 from rescene_core.assembly import AssemblyObject, attach
-from rescene_core.assembly.scenes import rect_room
+from rescene_core.assembly.scenes import box_object, rect_room
 from rescene_core.assembly.transforms import rigid_change, rotation_about, translation
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
@@ -198,3 +198,40 @@ def test_exact_child_still_turns_with_its_parent():
         _centre(lamp, layout.world_from_asset[InstanceId(2)])[:2] - _centre(lamp, lamp.world_from_asset)[:2]
     )
     assert shift > 0.05
+
+
+def _shelf_with_books(book_z: float, *, parent_generated: bool):
+    shell = rect_room()
+    shelf = box_object(1, "bookshelf", (0.9, 0.35, 1.8), translation([2.0, 0.2, 0.0]), exact_shape=not parent_generated)
+    books = box_object(2, "book stack", (0.25, 0.2, 0.12), translation([2.0, 0.2, book_z]), exact_shape=False)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 1.0),
+        )
+    )
+    return {o.instance: o for o in (shelf, books)}, graph, shell
+
+
+def test_a_child_inside_a_generated_parent_stays_on_the_inner_shelf_the_mesh_lacks():
+    # a generated bookshelf is a block without boards; the book stack was registered on a board at 0.8 m
+    objects, graph, shell = _shelf_with_books(0.8, parent_generated=True)
+    layout = attach(objects, graph, shell, AttachmentConfig(stop_after="relations"))
+    z = apply(layout.world_from_asset[InstanceId(2)], objects[InstanceId(2)].vertices)[:, 2].min()
+    assert z == pytest.approx(0.8, abs=1e-6)  # not lifted 1 m onto the top
+    skip = next(op for op in layout.operations if op["instance"] == 2 and op["rule"] == "skip")
+    assert "inner shelf" in skip["reason"]
+
+
+def test_a_child_sunk_into_the_top_of_a_generated_parent_is_put_on_top():
+    objects, graph, shell = _shelf_with_books(1.75, parent_generated=True)  # 5 cm into the top
+    layout = attach(objects, graph, shell, AttachmentConfig(stop_after="relations"))
+    z = apply(layout.world_from_asset[InstanceId(2)], objects[InstanceId(2)].vertices)[:, 2].min()
+    assert z == pytest.approx(1.8, abs=1e-6)
+
+
+def test_without_the_inner_tolerance_the_child_goes_onto_the_top():
+    objects, graph, shell = _shelf_with_books(0.8, parent_generated=True)
+    layout = attach(objects, graph, shell, AttachmentConfig(stop_after="relations", support_inner_tolerance=None))
+    z = apply(layout.world_from_asset[InstanceId(2)], objects[InstanceId(2)].vertices)[:, 2].min()
+    assert z == pytest.approx(1.8, abs=1e-6)
