@@ -353,6 +353,12 @@ class SceneGraphConfig(_Section):
     """Neighbours used to estimate point normals for the support prior."""
     max_fusion_points: int = 20000
     """Most points per instance used by the fusion priors (uniform subsample, seeded)."""
+    outlier_eps: float = 0.05
+    """Fusion: an instance's points that DBSCAN (Open3D, this radius in m) leaves as noise are dropped before
+    the priors measure it: stray points of mask edges and mixed depth lie scattered across the room and
+    otherwise set the bottom height and the footprint's orientation."""
+    outlier_min_points: int = 8
+    """Fusion: DBSCAN neighbourhood size for ``outlier_eps`` (0 keeps every point)."""
     prior_path: str | None = None
     """Category co-occurrence table; None = the shipped rescene_core/data/relation_prior.json."""
     ab_frames: int = 3

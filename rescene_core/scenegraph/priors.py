@@ -96,14 +96,34 @@ def normal_agreement(child: InstanceGeometry, wall_normal: NDArray) -> float:
     return (1.0 - e) * abs(c2) + e * max(0.0, -c2)
 
 
+def drop_strays(points: NDArray, config: SceneGraphConfig) -> NDArray[np.float64]:
+    """The points [n, 3] (world m) less those DBSCAN (Open3D, radius ``outlier_eps``, ``outlier_min_points``
+    neighbours) leaves as noise. An instance's cloud gathers, over many frames, stray points from mask edges
+    and mixed depth at silhouettes; they lie scattered across the room (on cluttered scenes up to a few
+    percent of the points, metres away), below the object's bottom and beside its footprint, where they set
+    the lower contact surface and the footprint rectangle. The points are returned unchanged when the
+    filter is off, when there are too few of them, or when it would leave fewer than half of them."""
+    pts = np.asarray(points, dtype=np.float64)
+    if config.outlier_min_points <= 0 or len(pts) < 2 * config.outlier_min_points:
+        return pts
+    import open3d as o3d
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+    labels = np.asarray(cloud.cluster_dbscan(eps=config.outlier_eps, min_points=config.outlier_min_points))
+    keep = labels >= 0
+    return pts[keep] if keep.sum() >= 0.5 * len(pts) else pts
+
+
 def instance_geometry(
     capture: Capture, instance: int, shell: RoomShell, config: SceneGraphConfig, seed: int = 0
 ) -> InstanceGeometry:
-    """Measure P_i of one instance against the shell (at most ``max_fusion_points`` points)."""
+    """Measure P_i of one instance against the shell (at most ``max_fusion_points`` points, strays dropped
+    by ``drop_strays``)."""
     pts = np.asarray(capture.point_cloud(instance).points, dtype=np.float64)
     pts = pts[np.isfinite(pts).all(axis=1)]
     if len(pts) > config.max_fusion_points:
         pts = pts[np.random.default_rng(seed + int(instance)).choice(len(pts), config.max_fusion_points, replace=False)]
+    pts = drop_strays(pts, config)
     iid = InstanceId(int(instance))
     if len(pts) < 3:
         return InstanceGeometry(
