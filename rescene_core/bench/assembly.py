@@ -253,6 +253,7 @@ def draw_plan(path: Path, shell: RoomShell, objects: dict, panels: dict[str, dic
             ax.text(c.x, c.y, f"{int(i)}", fontsize=6, ha="center", va="center")
         ax.set_title(title, fontsize=9)
         ax.set_aspect("equal")
+    fig.suptitle("footprints: blue placed, red colliding, orange out of the room; labels are object ids", fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
