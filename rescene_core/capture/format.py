@@ -20,9 +20,6 @@ Reading is lazy for the per-pixel arrays (zarr arrays, one chunk per frame) and 
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +29,7 @@ import numpy as np
 import zarr
 from numpy.typing import NDArray
 
+from rescene_core.io import atomic_directory
 from rescene_core.records import Camera, Instance, InstanceId, InstancePoints
 
 FORMAT_NAME = "rescene-capture"
@@ -105,9 +103,7 @@ def write_capture(
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True or choose another path")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
-    try:
+    with atomic_directory(path) as tmp:
         root = zarr.open_group(str(tmp), mode="w", zarr_format=3)
         root.attrs.update(
             {
@@ -136,12 +132,6 @@ def write_capture(
         write_array(inst, "colors", capture.colors, (max(1, min(len(capture.colors), 1 << 20)), 3))
         if extra is not None:
             extra(root)
-        if path.exists():
-            shutil.rmtree(path)
-        os.replace(tmp, path)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return path
 
 

@@ -14,9 +14,6 @@ seeded per instance so the same layout gives the same file. Written atomically (
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +23,7 @@ import zarr
 from rescene_core.capture.format import write_array
 from rescene_core.export.scene import ExportConfig, ExportObject
 from rescene_core.geometry import sim3
+from rescene_core.io import atomic_directory
 
 POINTS_FORMAT = "rescene-scene-points"
 POINTS_VERSION = 1
@@ -46,12 +44,10 @@ def sample_object(obj: ExportObject, config: ExportConfig) -> tuple[np.ndarray, 
 def write_scene_points(path: str | Path, objects: list[ExportObject], config: ExportConfig) -> Path:
     """Write ``points.zarr`` for the placed objects (see the module docstring)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     ordered = sorted(objects, key=lambda o: o.instance)
     samples = [sample_object(o, config) for o in ordered]
     counts = [len(p) for p, _ in samples]
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
-    try:
+    with atomic_directory(path) as tmp:
         root = zarr.open_group(str(tmp), mode="w", zarr_format=3)
         root.attrs.update(
             format=POINTS_FORMAT, version=POINTS_VERSION, units="m", up="+z", samples_per_m2=config.points_per_m2
@@ -61,12 +57,6 @@ def write_scene_points(path: str | Path, objects: list[ExportObject], config: Ex
         empty = np.zeros((0, 3), np.float32)
         write_array(root, "points", np.concatenate([p for p, _ in samples]) if samples else empty)
         write_array(root, "normals", np.concatenate([n for _, n in samples]) if samples else empty)
-        if path.exists():
-            shutil.rmtree(path)
-        os.replace(tmp, path)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return path
 
 
