@@ -265,6 +265,18 @@ class _Generator:
             return None
         return sure[int(self.rng.integers(len(sure)))]
 
+    def pick_child(
+        self, cat: Category, edges: list[Edge], exclude: set[str]
+    ) -> tuple[Edge, str, tuple[str, ...] | None] | None:
+        """For "which of these objects ..." questions: a confident edge of ``edges`` (``pick_confident``),
+        its child's label as the answer, and choices from the scene's labels without ``exclude`` (the
+        labels that would also be right). None when no edge is confident."""
+        pick = self.pick_confident(cat, edges)
+        if pick is None:
+            return None
+        ans = self.label(int(pick.child))
+        return pick, ans, self.choices(ans, self.labels, exclude)
+
     def parent_label(self, e: Edge) -> str:
         pid = edge_parent_id(e)
         return FLOOR_ANSWER if pid is None and e.parent == Root.FLOOR else ("wall" if pid is None else self.label(pid))
@@ -495,17 +507,16 @@ class _Generator:
             if pid not in self.unique:
                 self.drop(cat, Filter.AMBIGUOUS_REFERENCE)
                 continue
-            pick = self.pick_confident(cat, kids)
-            if pick is None:
+            picked = self.pick_child(cat, kids, {self.label(int(e.child)) for e in kids} | {self.label(pid)})
+            if picked is None:
                 continue
-            ans = self.label(int(pick.child))
-            exclude = {self.label(int(e.child)) for e in kids} | {self.label(pid)}
+            pick, ans, options = picked
             self.add(
                 cat,
                 "what_rests_on",
                 f"Which of these objects rests on the {self.ref(pid)}?",
                 ans,
-                self.choices(ans, self.labels, exclude),
+                options,
                 (pid, int(pick.child)),
                 {"edges": [_edge_json(pick)], "children": sorted(int(e.child) for e in kids)},
             )
@@ -580,17 +591,16 @@ class _Generator:
             if self.wall_name_counts[name] > 1:
                 self.drop(cat, Filter.AMBIGUOUS_WALL)
                 continue
-            pick = self.pick_confident(cat, es)
-            if pick is None:
+            picked = self.pick_child(cat, es, {self.label(int(e.child)) for e in es})
+            if picked is None:
                 continue
-            ans = self.label(int(pick.child))
-            exclude = {self.label(int(e.child)) for e in es}
+            pick, ans, options = picked
             self.add(
                 cat,
                 "what_on_wall",
                 f"Which of these objects is mounted on the {name} wall?",
                 ans,
-                self.choices(ans, self.labels, exclude),
+                options,
                 (int(pick.child),),
                 {"edges": [_edge_json(pick)], "wall_id": wid},
             )
@@ -655,17 +665,17 @@ class _Generator:
             if len(others) > 1 and not self.far_enough(others[0][0], others[1][0]):
                 self.drop(cat, Filter.NEAR_EQUAL_DISTANCE)
                 continue
-            pick = self.pick_confident(cat, kids)
-            if pick is None:
-                continue
-            ans = self.label(int(pick.child))
             exclude = {self.label(int(k.child)) for k in self.children[near]} | {self.label(a)}
+            picked = self.pick_child(cat, kids, exclude)
+            if picked is None:
+                continue
+            pick, ans, options = picked
             self.add(
                 cat,
                 "rests_on_nearest",
                 f"Which of these objects rests on the object nearest to the {self.ref(a)}?",
                 ans,
-                self.choices(ans, self.labels, exclude),
+                options,
                 (a, near, int(pick.child)),
                 {
                     "edges": [_edge_json(pick)],
@@ -700,18 +710,17 @@ class _Generator:
                     kids = [k for k in self.children[n] if k.relation == Relation.RESTS_ON]
                     if not kids:
                         continue
-                    pick = self.pick_confident(cat, kids)
-                    if pick is None:
+                    picked = self.pick_child(cat, kids, {self.label(int(k.child)) for k in kids} | {self.label(b)})
+                    if picked is None:
                         continue
-                    ans = self.label(int(pick.child))
-                    exclude = {self.label(int(k.child)) for k in kids} | {self.label(b)}
+                    pick, ans, options = picked
                     self.add(
                         cat,
                         "rests_on_neighbour_in_view",
                         f"In this view, which of these objects rests on the piece of furniture immediately to "
                         f"the {side} of the {self.ref(b)}?",
                         ans,
-                        self.choices(ans, self.labels, exclude),
+                        options,
                         (b, n, int(pick.child)),
                         {
                             "view": vp.id,
