@@ -188,7 +188,10 @@ def pose_errors(gt: dict, objects: dict, poses: dict) -> tuple[float, float]:
     return float(np.median(t_err)), float(np.median(r_err))
 
 
-def run_stages(gt: dict, objects: dict, graph: SceneGraph, shell: RoomShell) -> dict[str, dict[str, Any]]:
+def run_stages(
+    gt: dict, objects: dict, graph: SceneGraph, shell: RoomShell, poses_out: dict | None = None
+) -> dict[str, dict[str, Any]]:
+    """Metrics of every stage from ``objects``' poses against ``gt``; ``poses_out`` receives each stage's poses."""
     out = {}
     for stage in STAGES:
         if stage == "none":
@@ -198,6 +201,8 @@ def run_stages(gt: dict, objects: dict, graph: SceneGraph, shell: RoomShell) -> 
             layout = attach(objects, graph, shell, AttachmentConfig(stop_after=stage))
             seconds = time.perf_counter() - start
             poses = layout.world_from_asset
+        if poses_out is not None:
+            poses_out[stage] = poses
         m = structural_metrics(objects, poses, graph, shell)
         t_err, r_err = pose_errors(gt, objects, poses)
         out[stage] = {
@@ -253,7 +258,9 @@ def draw_plan(path: Path, shell: RoomShell, objects: dict, panels: dict[str, dic
             ax.text(c.x, c.y, f"{int(i)}", fontsize=6, ha="center", va="center")
         ax.set_title(title, fontsize=9)
         ax.set_aspect("equal")
-    fig.suptitle("footprints: blue placed, red colliding, orange out of the room; labels are object ids", fontsize=8)
+    fig.suptitle(
+        "footprints: blue placed, red colliding, orange out of the room; labels are object or instance ids", fontsize=8
+    )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -273,7 +280,8 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
             graph = SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in graph.edges))
             start_objects, modes = perturb(gt_objects, graph, shell, seed)
             gt_metrics = structural_metrics(gt_objects, None, graph, shell)
-            stages = run_stages(gt_objects, start_objects, graph, shell)
+            stage_poses: dict[str, dict] = {}
+            stages = run_stages(gt_objects, start_objects, graph, shell, stage_poses)
             scenes.append(
                 {
                     "preset": name,
@@ -297,16 +305,11 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
                 }
             )
             if seed == seeds[0]:
-                full = attach(start_objects, graph, shell, AttachmentConfig())
-                before = {i: o.world_from_asset for i, o in start_objects.items()}
-                panels = {}
-                for title, poses in (
-                    ("ground truth", {i: o.world_from_asset for i, o in gt_objects.items()}),
-                    ("perturbed (before)", before),
-                    ("full attachment (after)", full.world_from_asset),
-                ):
-                    m = structural_metrics(start_objects, poses, graph, shell)
-                    panels[title] = {"poses": poses, "colliding": m["colliding"], "oob": set(m["oob_objects"])}
+                panels = {
+                    "ground truth": _panel({i: o.world_from_asset for i, o in gt_objects.items()}, gt_metrics),
+                    "perturbed (before)": _panel(stage_poses["none"], stages["none"]),
+                    "full attachment (after)": _panel(stage_poses["full"], stages["full"]),
+                }
                 draw_plan(work_dir / "plans" / f"{name}_{seed}.png", shell, start_objects, panels)
     summary = {}
     for name in PRESETS:
@@ -452,7 +455,20 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "gt": SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in gt_graph.edges)),
     }
     exact = exact_shape_objects(cap, gt, set(objects), run_dir / "exact_shape_poses.json")
-    _draw_registration_plan(work_dir / "plans" / f"registration_{preset}_{seed}.png", shell, objects, graphs["fused"])
+    fused_poses: dict[str, dict] = {}
+    stages = {
+        name: _registration_stages(objects, g, shell, gt_centre, fused_poses if name == "fused" else None)
+        for name, g in graphs.items()
+    }
+    draw_plan(
+        work_dir / "plans" / f"registration_{preset}_{seed}.png",
+        shell,
+        objects,
+        {
+            "registered (before)": _panel(fused_poses["none"], stages["fused"]["none"]),
+            "full attachment (after)": _panel(fused_poses["full"], stages["fused"]["full"]),
+        },
+    )
     return {
         "preset": preset,
         "seed": seed,
@@ -461,27 +477,22 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "objects": len(objects),
         "matched_to_gt": len(gt_centre),
         "exact_shapes_registered": len(exact),
-        "graphs": {name: _registration_stages(objects, g, shell, gt_centre) for name, g in graphs.items()},
+        "graphs": stages,
         "exact_shapes": {
             name: _registration_stages(exact, g, shell, {i: gt_centre[i] for i in exact}) for name, g in graphs.items()
         },
     }
 
 
-def _draw_registration_plan(path: Path, shell: RoomShell, objects: dict, graph: SceneGraph) -> None:
-    """Top-down plans of the registered generated assets before and after the full solver (fused graph)."""
-    full = attach(objects, graph, shell, AttachmentConfig())
-    panels = {}
-    for title, poses in (
-        ("registered (before)", {i: o.world_from_asset for i, o in objects.items()}),
-        ("full attachment (after)", full.world_from_asset),
-    ):
-        m = structural_metrics(objects, poses, graph, shell)
-        panels[title] = {"poses": poses, "colliding": m["colliding"], "oob": set(m["oob_objects"])}
-    draw_plan(path, shell, objects, panels)
+def _panel(poses: dict, metrics: dict) -> dict[str, Any]:
+    """One ``draw_plan`` panel: poses, and the colliding pairs and out-of-room objects measured on them."""
+    return {"poses": poses, "colliding": metrics["colliding"], "oob": set(metrics["oob_objects"])}
 
 
-def _registration_stages(objects: dict, graph: SceneGraph, shell: RoomShell, gt_centre: dict) -> dict[str, Any]:
+def _registration_stages(
+    objects: dict, graph: SceneGraph, shell: RoomShell, gt_centre: dict, poses_out: dict | None = None
+) -> dict[str, Any]:
+    """Metrics of every stage from the registered poses; ``poses_out`` receives each stage's poses."""
     stages = {}
     for stage in STAGES:
         if stage == "none":
@@ -490,6 +501,8 @@ def _registration_stages(objects: dict, graph: SceneGraph, shell: RoomShell, gt_
             start = time.perf_counter()
             poses = attach(objects, graph, shell, AttachmentConfig(stop_after=stage)).world_from_asset
             seconds = time.perf_counter() - start
+        if poses_out is not None:
+            poses_out[stage] = poses
         m = structural_metrics(objects, poses, graph, shell)
         err = []
         for i, c in gt_centre.items():
