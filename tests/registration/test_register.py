@@ -68,16 +68,21 @@ def test_diagnostics_record_every_gate_and_are_json():
     assert d["final"]["fit"]["inlier_ratio"] >= CONFIG.min_result_inlier_ratio
 
 
-def test_icp_respects_rotation_and_scale_bounds():
-    mesh = chair_mesh()
-    asset, target, gt = _case(mesh, seed=5, partial=False)
+def _icp_case(scale: float, yaw_deg: float):
+    """(source samples, target points, init, target extent) for the bounded ICP on the full chair cloud, with
+    an initialisation ``yaw_deg`` of yaw and ``scale`` x scale away from the truth, about the object's centre."""
+    asset, target, gt = _case(chair_mesh(), seed=5, partial=False)
     points = np.asarray(target.points, np.float64)
     centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
-    # initialisation 40 deg of yaw and 1.4x scale away from the truth, about the object's centre
-    off = sim3.sim3_from_parts(1.4, Rotation.from_euler("z", 40, degrees=True).as_matrix(), np.zeros(3))
+    off = sim3.sim3_from_parts(scale, Rotation.from_euler("z", yaw_deg, degrees=True).as_matrix(), np.zeros(3))
     init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
     source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
     extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    return source, points, init, extent
+
+
+def test_icp_respects_rotation_and_scale_bounds():
+    source, points, init, extent = _icp_case(scale=1.4, yaw_deg=40)
     result = register_module.bounded_sim3_icp(source, points, init, extent, CONFIG)
     assert result.history
     assert max(h["step_rotation_deg"] for h in result.history) <= CONFIG.max_step_rotation_deg + 1e-6
@@ -91,14 +96,7 @@ def test_icp_respects_rotation_and_scale_bounds():
 
 @pytest.mark.parametrize("bound", ["step", "total"])
 def test_rotation_clamps_engage(bound):
-    mesh = chair_mesh()
-    asset, target, gt = _case(mesh, seed=5, partial=False)
-    points = np.asarray(target.points, np.float64)
-    centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
-    off = sim3.sim3_from_parts(1.0, Rotation.from_euler("z", 12, degrees=True).as_matrix(), np.zeros(3))
-    init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
-    source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
-    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    source, points, init, extent = _icp_case(scale=1.0, yaw_deg=12)
     limit = {"max_step_rotation_deg": 0.5} if bound == "step" else {"max_total_rotation_deg": 4.0}
     config = CONFIG.model_copy(update=limit)
     result = register_module.bounded_sim3_icp(source, points, init, extent, config)
@@ -337,13 +335,7 @@ def test_shared_feature_matches_give_the_feature_matching_ransac_candidates():
 
 
 def test_icp_resumed_from_a_probe_equals_one_uninterrupted_run():
-    asset, target, gt = _case(chair_mesh(), seed=5, partial=False)
-    points = np.asarray(target.points, np.float64)
-    centre = sim3.sim3_from_parts(1.0, np.eye(3), points.mean(axis=0))
-    off = sim3.sim3_from_parts(1.2, Rotation.from_euler("z", 30, degrees=True).as_matrix(), np.zeros(3))
-    init = sim3.compose(centre, sim3.compose(off, sim3.compose(sim3.inverse(centre), gt)))
-    source = trimesh.sample.sample_surface(trimesh.Trimesh(asset.vertices, asset.faces), 3000, seed=0)[0]
-    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    source, points, init, extent = _icp_case(scale=1.2, yaw_deg=30)
     config = CONFIG.model_copy(update={"icp_tolerance": 0.0})  # run the whole budget
     direct = register_module.bounded_sim3_icp(source, points, init, extent, config)
     probe_config = config.model_copy(update={"max_iterations": config.probe_iterations})
