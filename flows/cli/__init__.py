@@ -6,6 +6,7 @@ Exit codes: 0 success, 1 the work failed, 2 bad input (a clear message, never a 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 from pathlib import Path
@@ -108,6 +109,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset)
 
 
+COMMAND_GROUPS: list[str] = []
+"""Modules of ``flows.cli`` that add sub-commands: each has ``register(sub)``, which adds its parsers to
+the ``add_subparsers`` object and sets ``func`` (``args -> exit code``) on each."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="rescene", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -173,6 +179,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--views", type=int, help="viewpoints to sample and render (default VqaConfig.views)")
     p.add_argument("--seed", type=int, help="seed of every random choice (default VqaConfig.seed)")
     p.set_defaults(func=_cmd_vqa)
+
+    for group in COMMAND_GROUPS:
+        importlib.import_module(f"flows.cli.{group}").register(sub)
     return parser
 
 
