@@ -4,7 +4,8 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 RESCENE := $(VENV)/bin/rescene
 STAMP := $(VENV)/.installed
-DEBIAN_PACKAGES := libusb-1.0-0 libgomp1 libgl1
+DEBIAN_PACKAGES := libusb-1.0-0 libgomp1 libgl1 nodejs chromium
+# nodejs runs the Khronos glTF validator; chromium is the headless browser the report tests drive
 DEMO_DIR ?= demo
 PRESET ?= standard
 SEED ?= 0
@@ -27,11 +28,13 @@ system-deps: ## install the Debian libraries open3d needs (when root), or say wh
 	  else echo "ReScene needs the Debian packages:$$missing"; echo "  run: sudo apt-get install$$missing"; exit 1; fi; \
 	fi
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml package.json
 	@$(MAKE) --no-print-directory system-deps
+	@command -v npm >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y -qq npm >/dev/null; } || { echo "ReScene needs npm: sudo apt-get install npm"; exit 1; }
 	@test -x $(PY) || python3.11 -m venv $(VENV) || python3 -m venv $(VENV)
 	@$(PY) -m pip install -q --upgrade uv
 	$(PY) -m uv pip install --python $(PY) -e '.[dev]'
+	npm install --no-audit --no-fund --loglevel=error
 	@touch $(STAMP)
 
 setup: $(STAMP) ## create .venv and install ReScene with its CPU dependencies
