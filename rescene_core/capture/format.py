@@ -14,7 +14,8 @@ Layout (docs/capture-format.md is the user-facing description):
     instances/colors    uint8   [M, 3]
     gt/...                                  ground truth (synthetic captures only)
 
-Writing is atomic: the group is built in a sibling temporary directory and renamed into place.
+Writing is atomic: the group is built in a sibling temporary directory and renamed into place. The
+writer stamps the store with its content hash (``rescene_core.capture.identity``).
 Reading is lazy for the per-pixel arrays (zarr arrays, one chunk per frame) and eager for the rest.
 """
 
@@ -29,6 +30,7 @@ import numpy as np
 import zarr
 from numpy.typing import NDArray
 
+from rescene_core.capture.identity import stamp_capture
 from rescene_core.io import atomic_directory
 from rescene_core.records import Camera, Instance, InstanceId, InstancePoints
 
@@ -132,6 +134,8 @@ def write_capture(
         write_array(inst, "colors", capture.colors, (max(1, min(len(capture.colors), 1 << 20)), 3))
         if extra is not None:
             extra(root)
+        # the identity stamp covers every array, so runs can check the capture without reading it all
+        stamp_capture(tmp)
     return path
 
 
