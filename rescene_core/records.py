@@ -34,6 +34,34 @@ class Root(enum.StrEnum):
     WALL = "wall"
 
 
+class Stage(enum.StrEnum):
+    """The stages of the pipeline, by the one name used everywhere: task names, run-log segments,
+    ``Missing.stage``, manifest stage counts, fault injection and the library's ``STAGE`` constants.
+
+    Earlier names are accepted when reading (``"hierview"`` is ``VIEW``, ``"assembly"`` is ``ATTACHMENT``).
+    """
+
+    VALIDATE = "validate"
+    SHELL = "shell"
+    VIEW = "view"
+    KEYFRAMES = "keyframes"
+    ASSET = "asset"
+    REGISTRATION = "registration"
+    RELATIONS = "relations"
+    FUSION = "fusion"
+    SNAPSHOT = "snapshot"
+    ATTACHMENT = "attachment"
+    EXPORT = "export"
+    EVALUATION = "evaluation"
+
+    @classmethod
+    def _missing_(cls, value: object) -> Stage | None:
+        return _STAGE_ALIASES.get(str(value))
+
+
+_STAGE_ALIASES = {"hierview": Stage.VIEW, "assembly": Stage.ATTACHMENT}
+
+
 Parent = InstanceId | Root
 """A parent is another instance or a structural root."""
 
@@ -370,18 +398,24 @@ class SceneGraph:
 
 @dataclass(frozen=True)
 class Missing:
-    """An instance a stage could not handle: later stages skip it, and the report lists it."""
+    """An instance a stage could not handle: later stages skip it, and the report lists it.
+
+    stage: a ``Stage`` (a plain stage name such as ``"registration"`` is converted on construction).
+    """
 
     instance: InstanceId
-    stage: str
+    stage: Stage
     reason: str
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stage", Stage(self.stage))
+
     def to_json(self) -> dict[str, Any]:
-        return {"instance": int(self.instance), "stage": self.stage, "reason": self.reason}
+        return {"instance": int(self.instance), "stage": self.stage.value, "reason": self.reason}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Missing:
-        return cls(InstanceId(int(d["instance"])), str(d["stage"]), str(d["reason"]))
+        return cls(InstanceId(int(d["instance"])), Stage(d["stage"]), str(d["reason"]))
 
 
 @dataclass(frozen=True)
@@ -409,4 +443,72 @@ class Layout:
             {InstanceId(int(k)): np.asarray(v, dtype=np.float64) for k, v in d["objects"].items()},
             tuple(d.get("operations", ())),
             tuple(Missing.from_json(m) for m in d.get("missing", ())),
+        )
+
+
+class RefStatus(enum.StrEnum):
+    """Whether a stage produced its output for the item (``OK``) or an explicit Missing (``MISSING``)."""
+
+    OK = "ok"
+    MISSING = "missing"
+
+
+@dataclass(frozen=True)
+class Ref:
+    """What a pipeline task returns: a small reference to the file it wrote, never the data itself.
+
+    kind: what the file holds ("shell", "view", "asset", "pose", "graph", "layout", "scene", ...).
+    path: the file, relative to the run directory (absolute for the capture, which lives outside it).
+    sha256: content hash of that file (of the whole Zarr store for the capture).
+    item: the instance id or key-frame index, None for scene-level outputs.
+    status: OK, or MISSING when the stage recorded ``missing`` instead of an output.
+    numbers: a few plain JSON numbers for tables and logs (faces, frame, rmse, ...).
+    detail: small JSON values a later stage needs (the key-frame list, the export's file hashes).
+
+    Only ``cache_digest()`` enters the cache keys of the tasks that take this reference as input.
+    """
+
+    kind: str
+    path: str
+    sha256: str
+    item: int | None = None
+    status: RefStatus = RefStatus.OK
+    numbers: dict[str, Any] = field(default_factory=dict)
+    missing: Missing | None = None
+    detail: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "status", RefStatus(self.status))
+
+    @property
+    def ok(self) -> bool:
+        return self.status is RefStatus.OK
+
+    def cache_digest(self) -> dict[str, str]:
+        """What of this reference a downstream cache key depends on: the content hash and the status."""
+        return {"sha256": self.sha256, "status": self.status.value}
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "path": self.path,
+            "sha256": self.sha256,
+            "item": None if self.item is None else int(self.item),
+            "status": self.status.value,
+            "numbers": dict(self.numbers),
+            "missing": None if self.missing is None else self.missing.to_json(),
+            "detail": dict(self.detail),
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Ref:
+        return cls(
+            kind=str(d["kind"]),
+            path=str(d["path"]),
+            sha256=str(d["sha256"]),
+            item=None if d.get("item") is None else int(d["item"]),
+            status=RefStatus(d.get("status", "ok")),
+            numbers=dict(d.get("numbers", {})),
+            missing=Missing.from_json(d["missing"]) if d.get("missing") else None,
+            detail=dict(d.get("detail", {})),
         )

@@ -1,10 +1,11 @@
 """What every ReScene task shares: references, the input-hash cache policy, retries and the run-log segment.
 
-A task's result is a *reference*: a small JSON dict naming the file it wrote under the run directory,
-that file's sha256, its status ("ok" or "missing") and a few numbers. The cache key of a task run is
-built from the content hashes of its input references, the hash of its config section and the code
-version of its stage (``tasks.stages.code_version``), so a changed input recomputes exactly what depends
-on it. Results are persisted as JSON (no pickles) under ``RUN/.prefect/results``.
+A task's result is a ``rescene_core.records.Ref``: a frozen record naming the file it wrote under the
+run directory, that file's sha256, its status (OK or MISSING) and a few numbers. The cache key of a
+task run is built from ``Ref.cache_digest()`` of its input references, the hash of its config section
+and the code version of its stage (``tasks.stages.code_version``), so a changed input recomputes exactly
+what depends on it. Results are persisted as JSON (Prefect's JSON serializer writes the Ref's fields
+and its class name; no pickles) under ``RUN/.prefect/results``.
 """
 
 from __future__ import annotations
@@ -19,17 +20,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import httpx
 from prefect import task
 from prefect.cache_policies import CachePolicy
 from prefect.context import TaskRunContext
 from pydantic import BaseModel
 
-from rescene_core.io import hash_file, write_json_atomic
-from rescene_core.records import Missing
+from rescene_core import paths
+from rescene_core.io import hash_file, hash_tree, write_json_atomic
+from rescene_core.paths import RunPaths
+from rescene_core.records import Missing, Ref, RefStatus, Stage
 from rescene_core.runlog import Segment
 from tasks.stages import code_version
 
-RESULTS_DIR = Path(".prefect") / "results"
+RESULTS_DIR = Path(paths.RESULTS)
 """Persisted task results (JSON references) and cache records, relative to the run directory."""
 
 RETRIES = 3
@@ -61,16 +65,9 @@ def is_transient(exc: BaseException) -> bool:
         return bool(flag)
     if isinstance(exc, TimeoutError | ConnectionError):
         return True
-    try:
-        import httpx
-
-        if isinstance(exc, httpx.TimeoutException | httpx.TransportError):
-            return True
-        if isinstance(exc, httpx.HTTPStatusError) and exc.response.status_code >= 500:
-            return True
-    except ImportError:  # pragma: no cover - httpx is a dependency
-        pass
-    return False
+    if isinstance(exc, httpx.TimeoutException | httpx.TransportError):
+        return True
+    return isinstance(exc, httpx.HTTPStatusError) and exc.response.status_code >= 500
 
 
 def retry_transient(task_, task_run, state) -> bool:
@@ -93,40 +90,46 @@ def retry_delays(retries: int = RETRIES) -> list[float]:
 
 def make_ref(
     run_dir: str | Path,
-    rel: str,
+    path: str | Path,
     kind: str,
     item: int | None = None,
-    status: str = "ok",
     numbers: dict[str, Any] | None = None,
     missing: Missing | None = None,
-    **extra: Any,
-) -> dict[str, Any]:
-    """Reference to the file ``rel`` under ``run_dir``: path, sha256, status, a few numbers."""
-    return {
-        "kind": kind,
-        "item": item,
-        "path": rel,
-        "sha256": hash_file(Path(run_dir) / rel),
-        "status": status,
-        "numbers": numbers or {},
-        "missing": missing.to_json() if missing is not None else None,
-        **extra,
-    }
+    detail: dict[str, Any] | None = None,
+) -> Ref:
+    """Reference to the file ``path`` (absolute, or relative to ``run_dir``) that a task wrote: its
+    run-relative path, sha256, status (MISSING when ``missing`` is given) and a few numbers."""
+    run = RunPaths(run_dir)
+    full = Path(path) if Path(path).is_absolute() else run.root / path
+    return Ref(
+        kind=kind,
+        path=run.rel(full),
+        sha256=hash_file(full),
+        item=None if item is None else int(item),
+        status=RefStatus.OK if missing is None else RefStatus.MISSING,
+        numbers=numbers or {},
+        missing=missing,
+        detail=detail or {},
+    )
 
 
-def ref_missing(ref: dict[str, Any]) -> Missing | None:
-    return Missing.from_json(ref["missing"]) if ref.get("missing") else None
+def capture_ref(capture: str | Path) -> Ref:
+    """Reference to the capture (outside the run directory): absolute path and the Zarr store's content hash."""
+    path = Path(capture).resolve()
+    return Ref(kind="capture", path=str(path), sha256=hash_tree(path))
 
 
 def digest(value: Any) -> Any:
     """What of a task input goes into its cache key: content hashes of references, the hash of config
     sections, and plain values as they are."""
+    if isinstance(value, Ref):
+        return value.cache_digest()
+    if isinstance(value, Missing):
+        return value.to_json()
     if isinstance(value, BaseModel):
         blob = json.dumps(value.model_dump(mode="json"), sort_keys=True)
         return {"config": type(value).__name__, "sha256": hashlib.sha256(blob.encode()).hexdigest()[:16]}
     if isinstance(value, dict):
-        if "sha256" in value and "path" in value:
-            return {"sha256": value["sha256"], "status": value.get("status")}
         return {str(k): digest(v) for k, v in sorted(value.items())}
     if isinstance(value, list | tuple):
         return [digest(v) for v in value]
@@ -141,7 +144,7 @@ def digest(value: Any) -> Any:
 class StageInputs(CachePolicy):
     """Cache key = stage name + code version of the stage + digest of the inputs (see ``digest``)."""
 
-    stage: str = ""
+    stage: Stage = Stage.VALIDATE
 
     def compute_key(
         self, task_ctx: TaskRunContext, inputs: dict[str, Any], flow_parameters: dict[str, Any], **kwargs: Any
@@ -152,7 +155,7 @@ class StageInputs(CachePolicy):
         return f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
 
 
-def stage_task(stage: str, retries: int = RETRIES, tags: tuple[str, ...] = ()):
+def stage_task(stage: Stage, retries: int = RETRIES, tags: tuple[str, ...] = ()):
     """Decorator: a Prefect task of ``stage`` with the input-hash cache policy, JSON results, and
     retries with backoff on transient errors only."""
     return task(
@@ -171,12 +174,12 @@ def stage_task(stage: str, retries: int = RETRIES, tags: tuple[str, ...] = ()):
 # ---- execution: run-log segment, fault injection -------------------------------------------------
 
 
-def segment_name(stage: str, item: int | None) -> str:
+def segment_name(stage: Stage, item: int | None) -> str:
     return stage if item is None else f"{stage}-{int(item):06d}"
 
 
 @contextmanager
-def executing(run_dir: str | Path, stage: str, item: int | None = None) -> Iterator[Segment]:
+def executing(run_dir: str | Path, stage: Stage, item: int | None = None) -> Iterator[Segment]:
     """Context of one task execution: yields its run-log segment (replacing any earlier one), logs
     start/end/error events with the elapsed seconds, applies injected faults, writes the segment."""
     seg = Segment(Path(run_dir), segment_name(stage, item))
@@ -217,21 +220,22 @@ def executing(run_dir: str | Path, stage: str, item: int | None = None) -> Itera
     seg.close()
 
 
-FAULTS_FILE = "faults.json"
+FAULTS_FILE = paths.FAULTS
 """Fault injection for tests and drills: ``RUN/faults.json`` = [{"stage", "item", "kind", "times"}].
 
 kind "transient" raises TransientStageError (retried), "bad_input" raises BadInputError (not retried);
 each fault fires ``times`` times in all (counted in RUN/.faults/), then clears."""
 
 
-def inject_fault(run_dir: str | Path, stage: str, item: int | None) -> None:
-    path = Path(run_dir) / FAULTS_FILE
+def inject_fault(run_dir: str | Path, stage: Stage, item: int | None) -> None:
+    run = RunPaths(run_dir)
+    path = run.faults
     if not path.exists():
         return
     for fault in json.loads(path.read_text()):
         if fault.get("stage") != stage or fault.get("item") != item:
             continue
-        counter = Path(run_dir) / ".faults" / f"{segment_name(stage, item)}.count"
+        counter = run.fault_count(segment_name(stage, item))
         fired = int(counter.read_text()) if counter.exists() else 0
         if fired >= int(fault.get("times", 1)):
             continue

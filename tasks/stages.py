@@ -17,65 +17,59 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from rescene_core.records import InstanceId
+from rescene_core.records import InstanceId, Stage
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
-STAGE_MODULES: dict[str, tuple[str, ...]] = {
-    "validate": ("rescene_core.capture",),
-    "shell": ("rescene_core.shell",),
-    "view": ("rescene_core.hierview",),
-    "keyframes": ("rescene_core.hierview",),
-    "asset": ("rescene_core.assets",),
-    "registration": ("rescene_core.registration", "rescene_core.assets"),
-    "relations": ("rescene_core.scenegraph",),
-    "fusion": ("rescene_core.scenegraph",),
-    "attachment": ("rescene_core.assembly",),
-    "snapshot": ("rescene_core.runlog",),
-    "export": ("rescene_core.export",),
-    "evaluation": ("rescene_core.evaluation",),
+STAGE_MODULES: dict[Stage, tuple[str, ...]] = {
+    Stage.VALIDATE: ("rescene_core.capture",),
+    Stage.SHELL: ("rescene_core.shell",),
+    Stage.VIEW: ("rescene_core.hierview",),
+    Stage.KEYFRAMES: ("rescene_core.hierview",),
+    Stage.ASSET: ("rescene_core.assets",),
+    Stage.REGISTRATION: ("rescene_core.registration", "rescene_core.assets"),
+    Stage.RELATIONS: ("rescene_core.scenegraph",),
+    Stage.FUSION: ("rescene_core.scenegraph",),
+    Stage.ATTACHMENT: ("rescene_core.assembly",),
+    Stage.SNAPSHOT: ("rescene_core.runlog",),
+    Stage.EXPORT: ("rescene_core.export",),
+    Stage.EVALUATION: ("rescene_core.evaluation",),
 }
-"""Stage name -> library packages whose source makes up the stage's code version."""
+"""Stage -> library packages whose source makes up the stage's code version."""
 
 COMMON_SOURCES: tuple[str, ...] = (
     "rescene_core/records.py",
+    "rescene_core/paths.py",
     "rescene_core/io.py",
     "rescene_core/geometry",
     "rescene_core/capture/format.py",
     "rescene_core/capture/validate.py",
     "rescene_core/render",
 )
-"""Sources every stage depends on (records, geometry, capture reading, rendering)."""
+"""Sources every stage depends on (records, run paths, geometry, capture reading, rendering)."""
 
 
 class StageNotAvailable(RuntimeError):
     """A stage's library module is not part of this build; the message names the module."""
 
-    def __init__(self, stage: str, module: str, cause: BaseException | None = None):
+    def __init__(self, stage: Stage, module: str, cause: BaseException | None = None):
         self.stage = stage
         self.module = module
         detail = f" ({cause})" if cause else ""
         super().__init__(f"stage {stage!r} is not available: its library module {module!r} cannot be imported{detail}")
 
 
-def _load(stage: str, module: str, name: str) -> Any:
+def _load(stage: Stage, module: str, name: str) -> Any:
+    """``module.name``, imported now; StageNotAvailable when the module (not one of its imports) is absent."""
     try:
         mod = importlib.import_module(module)
     except ModuleNotFoundError as err:
         if err.name and (module == err.name or module.startswith(err.name + ".")):
             raise StageNotAvailable(stage, module, err) from err
         raise
-    try:
-        return getattr(mod, name)
-    except AttributeError as err:
-        raise StageNotAvailable(stage, f"{module}.{name}", err) from err
-
-
-def available(stage: str) -> bool:
-    """Whether every library package of ``stage`` can be found (without importing it)."""
-    import importlib.util
-
-    return all(importlib.util.find_spec(m) is not None for m in STAGE_MODULES[stage])
+    if not hasattr(mod, name):
+        raise StageNotAvailable(stage, f"{module}.{name}")
+    return getattr(mod, name)
 
 
 def _hash_paths(paths: list[Path]) -> str:
@@ -91,10 +85,10 @@ def _hash_paths(paths: list[Path]) -> str:
 
 
 @cache
-def code_version(stage: str) -> str:
+def code_version(stage: Stage) -> str:
     """Hash of the library sources of ``stage`` plus the common core (records, geometry, capture, render)."""
     paths = [REPO_ROOT / p for p in COMMON_SOURCES]
-    paths += [REPO_ROOT / Path(*m.split(".")) for m in STAGE_MODULES[stage]]
+    paths += [REPO_ROOT / Path(*m.split(".")) for m in STAGE_MODULES[Stage(stage)]]
     paths.append(REPO_ROOT / "tasks" / "stages.py")
     return _hash_paths(paths)
 
@@ -104,80 +98,80 @@ def code_version(stage: str) -> str:
 
 def estimate_shell(capture, config):
     """rescene_core.shell.estimate_shell(capture, ShellConfig) -> RoomShell."""
-    return _load("shell", "rescene_core.shell", "estimate_shell")(capture, config)
+    return _load(Stage.SHELL, "rescene_core.shell", "estimate_shell")(capture, config)
 
 
 def select_views(capture, config, instance_ids):
     """rescene_core.hierview.select_views(...) -> {instance id: ViewChoice | Missing}."""
-    return _load("view", "rescene_core.hierview", "select_views")(capture, config, instance_ids=instance_ids)
+    return _load(Stage.VIEW, "rescene_core.hierview", "select_views")(capture, config, instance_ids=instance_ids)
 
 
 def select_keyframes(capture, config):
     """rescene_core.hierview.select_keyframes(capture, KeyFrameConfig) -> KeyFrames (frames, to_json())."""
-    return _load("keyframes", "rescene_core.hierview", "select_keyframes")(capture, config)
+    return _load(Stage.KEYFRAMES, "rescene_core.hierview", "select_keyframes")(capture, config)
 
 
 def generate_asset(capture, view, config):
     """rescene_core.assets.generate_asset(capture, ViewChoice, AssetConfig) -> Asset | Missing."""
-    return _load("asset", "rescene_core.assets", "generate_asset")(capture, view, config)
+    return _load(Stage.ASSET, "rescene_core.assets", "generate_asset")(capture, view, config)
 
 
 def save_asset(path, asset) -> None:
     """rescene_core.assets.save_asset(path.glb, Asset)."""
-    _load("asset", "rescene_core.assets", "save_asset")(path, asset)
+    _load(Stage.ASSET, "rescene_core.assets", "save_asset")(path, asset)
 
 
 def load_asset(path, instance):
     """rescene_core.assets.load_asset(path.glb, instance) -> Asset."""
-    return _load("asset", "rescene_core.assets", "load_asset")(path, instance)
+    return _load(Stage.ASSET, "rescene_core.assets", "load_asset")(path, instance)
 
 
 def register(asset, target, config):
     """rescene_core.registration.register(Asset, InstancePoints, RegistrationConfig) -> Pose | Missing."""
-    return _load("registration", "rescene_core.registration", "register")(asset, target, config)
+    return _load(Stage.REGISTRATION, "rescene_core.registration", "register")(asset, target, config)
 
 
 def make_predictor(config):
     """rescene_core.scenegraph.make_predictor(SceneGraphConfig) -> relation predictor."""
-    return _load("relations", "rescene_core.scenegraph", "make_predictor")(config)
+    return _load(Stage.RELATIONS, "rescene_core.scenegraph", "make_predictor")(config)
 
 
 def predict_frame(capture, frame, shell, config, predictor):
     """rescene_core.scenegraph.predict_frame(...) -> FramePrediction (to_json())."""
-    return _load("relations", "rescene_core.scenegraph", "predict_frame")(capture, frame, shell, config, predictor)
+    return _load(Stage.RELATIONS, "rescene_core.scenegraph", "predict_frame")(capture, frame, shell, config, predictor)
 
 
 def frame_prediction_from_json(data: dict):
     """rescene_core.scenegraph.FramePrediction.from_json(dict) -> FramePrediction."""
-    return _load("fusion", "rescene_core.scenegraph", "FramePrediction").from_json(data)
+    return _load(Stage.FUSION, "rescene_core.scenegraph", "FramePrediction").from_json(data)
 
 
 def fuse(predictions, capture, shell, config, missing):
     """rescene_core.scenegraph.fuse(predictions, capture, shell, SceneGraphConfig, missing ids) -> SceneGraph."""
-    return _load("fusion", "rescene_core.scenegraph", "fuse")(predictions, capture, shell, config, missing)
+    return _load(Stage.FUSION, "rescene_core.scenegraph", "fuse")(predictions, capture, shell, config, missing)
 
 
 def fuse_with_report(predictions, capture, shell, config, missing, predictor):
     """rescene_core.scenegraph.fuse_with_report(...) -> (SceneGraph, FusionReport); uncertain edges are
     re-asked with the A/B prompt through ``predictor`` when its backend supports it."""
-    return _load("fusion", "rescene_core.scenegraph", "fuse_with_report")(
+    return _load(Stage.FUSION, "rescene_core.scenegraph", "fuse_with_report")(
         predictions, capture, shell, config, missing, predictor
     )
 
 
 def write_frame(out_dir, capture, prediction, config):
     """rescene_core.scenegraph.write_frame: frames/<t>.json (the prediction) and frames/<t>.png (ID overlay)."""
-    return _load("relations", "rescene_core.scenegraph", "write_frame")(out_dir, capture, prediction, config)
+    return _load(Stage.RELATIONS, "rescene_core.scenegraph", "write_frame")(out_dir, capture, prediction, config)
 
 
 def write_graph(out_dir, graph, capture, shell, report):
     """rescene_core.scenegraph.write_graph: graph.json (edges, labels, report) and graph.png (over the plan)."""
-    return _load("fusion", "rescene_core.scenegraph", "write_graph")(out_dir, graph, capture, shell, report)
+    return _load(Stage.FUSION, "rescene_core.scenegraph", "write_graph")(out_dir, graph, capture, shell, report)
 
 
 def assembly_object(instance: int, label: str, vertices, faces, world_from_asset):
     """rescene_core.assembly.AssemblyObject for one registered instance."""
-    cls = _load("attachment", "rescene_core.assembly", "AssemblyObject")
+    cls = _load(Stage.ATTACHMENT, "rescene_core.assembly", "AssemblyObject")
     return cls(
         instance=InstanceId(int(instance)),
         label=label,
@@ -189,4 +183,4 @@ def assembly_object(instance: int, label: str, vertices, faces, world_from_asset
 
 def attach(objects, graph, shell, config):
     """rescene_core.assembly.attach(objects, SceneGraph, RoomShell, AttachmentConfig) -> Layout."""
-    return _load("attachment", "rescene_core.assembly", "attach")(objects, graph, shell, config)
+    return _load(Stage.ATTACHMENT, "rescene_core.assembly", "attach")(objects, graph, shell, config)

@@ -59,9 +59,32 @@ def _cmd_synth(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from flows.scene import run_command
+    """`rescene run CAPTURE --out RUN [--config FILE] [--set k=v] [--runner thread|dask --address A]`."""
+    import os
+    import time
 
-    return run_command(args)
+    from rescene_core.capture import CaptureError
+    from rescene_core.config import load_config
+
+    config = load_config(args.config, args.set)
+    if args.runner == "dask" and not args.address:
+        print("no --address given: starting a local Dask cluster", file=sys.stderr)
+    os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+    from flows.scene import run_flow
+
+    start = time.perf_counter()
+    state = run_flow(args.capture, args.out, config, args.runner, args.address)
+    seconds = time.perf_counter() - start
+    summary = state.result(raise_on_failure=False) if state.is_completed() or state.is_failed() else None
+    if isinstance(summary, CaptureError):  # bad input: the problems, and exit code 2 as for every command
+        print(str(summary), file=sys.stderr)
+        return 2
+    print(f"{state.name}: {state.message or ''} ({seconds:.1f} s)")
+    if isinstance(summary, dict):
+        print(f"run directory: {summary['run_dir']}")
+        for m in summary["missing"]:
+            print(f"  missing {m['instance']} ({m['stage']}): {m['reason']}")
+    return 0 if state.is_completed() else 1
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
