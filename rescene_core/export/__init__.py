@@ -1,7 +1,8 @@
 """Exports of an assembled scene (GLB with named nodes, scene.json, per-object meshes, a Zarr point cloud)."""
 
+from rescene_core.export.objects import ExportObject, node_name
 from rescene_core.export.points import read_scene_points, write_scene_points
-from rescene_core.export.scene import ExportConfig, ExportObject, build_scene, export_scene, node_name, shell_meshes
+from rescene_core.export.scene import ExportConfig, build_scene, export_scene, shell_meshes
 
 __all__ = [
     "ExportConfig",

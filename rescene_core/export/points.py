@@ -15,15 +15,19 @@ seeded per instance so the same layout gives the same file. Written atomically (
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
 import zarr
 
 from rescene_core.capture.format import write_array
-from rescene_core.export.scene import ExportConfig, ExportObject
+from rescene_core.export.objects import ExportObject
 from rescene_core.geometry import sim3
 from rescene_core.io import atomic_directory
+
+if TYPE_CHECKING:  # the config class lives with the scene exporter, which imports this module
+    from rescene_core.export.scene import ExportConfig
 
 POINTS_FORMAT = "rescene-scene-points"
 POINTS_VERSION = 1

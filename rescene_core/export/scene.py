@@ -10,17 +10,18 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
-from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
+from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
+from rescene_core.export.objects import ExportObject
+from rescene_core.export.points import write_scene_points
 from rescene_core.io import hash_file, hash_tree, write_bytes_atomic
-from rescene_core.records import Missing, RoomShell, SceneGraph
+from rescene_core.records import Missing, RoomShell, Root, SceneGraph, parent_to_json
 
 SCENE_FORMAT = "rescene-scene"
 SCENE_VERSION = 1
@@ -43,32 +44,6 @@ class ExportConfig(BaseModel):
     """Fewest samples of one object in ``scene/points.zarr``."""
     max_points_per_object: int = 20000
     """Most samples of one object in ``scene/points.zarr``."""
-
-
-@dataclass(frozen=True)
-class ExportObject:
-    """One object to export.
-
-    vertices: float64 [v, 3] in the asset frame. faces: int64 [f, 3].
-    world_from_asset: float64 [4, 4] Sim(3), the final (attached) pose.
-    registered_world_from_asset: float64 [4, 4], the pose before attachment, when known.
-    """
-
-    instance: int
-    label: str
-    vertices: NDArray[np.float64]
-    faces: NDArray[np.int64]
-    world_from_asset: NDArray[np.float64]
-    registered_world_from_asset: NDArray[np.float64] | None = None
-
-    @property
-    def node_name(self) -> str:
-        return node_name(self.instance, self.label)
-
-
-def node_name(instance: int, label: str) -> str:
-    """Scene node name of an object: ``obj_<id>_<label>`` (label spaces become underscores)."""
-    return f"obj_{int(instance)}_{label.replace(' ', '_')}"
 
 
 def floor_height(shell: RoomShell) -> float:
@@ -120,6 +95,37 @@ def build_scene(objects: Iterable[ExportObject], shell: RoomShell | None, config
     return scene
 
 
+def node_extras(
+    objects: Iterable[ExportObject], shell: RoomShell | None, graph: SceneGraph | None, config: ExportConfig
+) -> dict[str, dict[str, Any]]:
+    """glTF node ``extras`` by node name: each object's id, label and scene-graph edge (relation, parent,
+    confidence, wall), its children; each shell node's kind."""
+    parents = graph.parent_of() if graph is not None else {}
+    names = {int(o.instance): o.node_name for o in objects}
+    children: dict[str, list[str]] = {}
+    for edge in parents.values():
+        if not isinstance(edge.parent, Root) and int(edge.parent) in names and int(edge.child) in names:
+            children.setdefault(names[int(edge.parent)], []).append(names[int(edge.child)])
+    out: dict[str, dict[str, Any]] = {}
+    for obj in objects:
+        edge = parents.get(obj.instance)
+        out[obj.node_name] = {
+            "instance": int(obj.instance),
+            "label": obj.label,
+            "relation": None if edge is None else edge.relation.value,
+            "parent": None if edge is None else parent_to_json(edge.parent),
+            "parent_node": None if edge is None or isinstance(edge.parent, Root) else names.get(int(edge.parent), None),
+            "confidence": None if edge is None else float(edge.confidence),
+            "wall_id": None if edge is None else edge.wall_id,
+            "children": sorted(children.get(obj.node_name, [])),
+        }
+    if shell is not None:
+        for name in shell_meshes(shell, config):
+            kind = "floor" if name == "shell_floor" else "wall"
+            out[name] = {"shell": kind, **({"wall_id": int(name.rsplit("_", 1)[1])} if kind == "wall" else {})}
+    return out
+
+
 def export_scene(
     out_dir: str | Path,
     objects: list[ExportObject],
@@ -129,7 +135,8 @@ def export_scene(
     config: ExportConfig,
     extra: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Write scene.glb, scene.json and objects/<node>.glb under ``out_dir``; returns {file: sha256}.
+    """Write scene.glb (+Y up, see rescene_core/export/gltf.py), scene.json and objects/<node>.glb under
+    ``out_dir``; returns {file: sha256}.
 
     extra: additional top-level fields for scene.json (e.g. the capture and the backends that ran).
     """
@@ -139,8 +146,7 @@ def export_scene(
     parents = graph.parent_of() if graph is not None else {}
     for obj in sorted(objects, key=lambda o: o.instance):
         rel = f"objects/{obj.node_name}.glb"
-        mesh = trimesh.Trimesh(np.asarray(obj.vertices), np.asarray(obj.faces), process=False)
-        write_bytes_atomic(out_dir / rel, mesh.export(file_type="glb"))
+        write_bytes_atomic(out_dir / rel, object_glb(obj.vertices, obj.faces))
         hashes[rel] = hash_file(out_dir / rel)
         edge = parents.get(obj.instance)
         m = np.asarray(obj.world_from_asset, dtype=np.float64)
@@ -159,8 +165,15 @@ def export_scene(
                 "relation": None if edge is None else edge.relation.value,
             }
         )
-    scene = build_scene(objects, shell, config)
-    write_bytes_atomic(out_dir / "scene.glb", scene.export(file_type="glb"))
+    missing = list(missing)
+    write_bytes_atomic(
+        out_dir / "scene.glb",
+        scene_glb(
+            build_scene(objects, shell, config),
+            node_extras(objects, shell, graph, config),
+            {"format": SCENE_FORMAT, "world_up": "+z", "root_node": ROOT_NODE, "units": "m"},
+        ),
+    )
     hashes["scene.glb"] = hash_file(out_dir / "scene.glb")
     doc = {
         "format": SCENE_FORMAT,
@@ -176,8 +189,6 @@ def export_scene(
     }
     write_bytes_atomic(out_dir / "scene.json", json.dumps(doc, indent=2).encode())
     hashes["scene.json"] = hash_file(out_dir / "scene.json")
-    from rescene_core.export.points import write_scene_points  # imports this module
-
     write_scene_points(out_dir / "points.zarr", list(objects), config)
     hashes["points.zarr"] = hash_tree(out_dir / "points.zarr")
     return hashes

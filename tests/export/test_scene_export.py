@@ -9,6 +9,7 @@ import pytest
 import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
+from rescene_core.export.gltf import ROOT_NODE, split_glb
 from rescene_core.records import Edge, InstanceId, Missing, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
 
 SHELL = RoomShell(
@@ -46,10 +47,18 @@ def test_export_scene(tmp_path):
     scene = trimesh.load(tmp_path / "scene.glb", force="scene")
     nodes = set(scene.graph.nodes_geometry)
     assert {"obj_3_night_stand", "obj_5_lamp", "shell_floor", "shell_wall_0", "shell_wall_1"} <= nodes
+    # glTF is +Y up: the z-up world hangs under one root node; undoing it gives world transforms back
+    yup_from_zup = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]], dtype=float)
+    assert scene.graph[ROOT_NODE][0] == pytest.approx(yup_from_zup)
+    zup_from_yup = np.linalg.inv(yup_from_zup)
     transform, _ = scene.graph["obj_3_night_stand"]
-    assert transform == pytest.approx(pose)
-    floor = scene.geometry[scene.graph["shell_floor"][1]].copy().apply_transform(scene.graph["shell_floor"][0])
-    wall = scene.geometry[scene.graph["shell_wall_0"][1]].copy().apply_transform(scene.graph["shell_wall_0"][0])
+    assert zup_from_yup @ transform == pytest.approx(pose)
+
+    def world(name):
+        node_transform, geom = scene.graph[name]
+        return scene.geometry[geom].copy().apply_transform(zup_from_yup @ node_transform)
+
+    floor, wall = world("shell_floor"), world("shell_wall_0")
     assert floor.bounds[:, 2] == pytest.approx([-ExportConfig().floor_thickness, 0.0])
     assert wall.bounds[:, 2] == pytest.approx([0.0, ExportConfig().wall_height])
     assert wall.bounds[1, 1] == pytest.approx(-2.0)  # the slab lies behind the wall plane y = -2
@@ -63,3 +72,19 @@ def test_export_scene(tmp_path):
     assert RoomShell.from_json(doc["shell"]) == SHELL
     mesh = trimesh.load(tmp_path / obj3["mesh"], force="mesh")
     assert len(mesh.faces) == len(box.faces)
+
+    doc, _ = split_glb((tmp_path / "scene.glb").read_bytes())
+    by_name = {n.get("name"): n for n in doc["nodes"]}
+    assert by_name["obj_5_lamp"]["extras"] == {
+        "instance": 5,
+        "label": "lamp",
+        "relation": "rests-on",
+        "parent": 3,
+        "parent_node": "obj_3_night_stand",
+        "confidence": 1.0,
+        "wall_id": None,
+        "children": [],
+    }
+    assert by_name["obj_3_night_stand"]["extras"]["children"] == ["obj_5_lamp"]
+    assert by_name["obj_3_night_stand"]["scale"] == pytest.approx([0.8] * 3)
+    assert by_name["shell_wall_1"]["extras"] == {"shell": "wall", "wall_id": 1}
