@@ -27,11 +27,11 @@ from rescene_core.capture import Capture
 from rescene_core.config import HierViewConfig
 from rescene_core.hierview.projection import LabelTable, mask_stats, points_in_mask
 from rescene_core.hierview.semantic import SemanticScorer, make_scorer
-from rescene_core.records import InstanceId, Missing, ViewChoice
+from rescene_core.records import InstanceId, Missing, Stage, ViewChoice
 
 log = logging.getLogger(__name__)
 
-STAGE = "hierview"
+STAGE = Stage.VIEW
 
 
 @dataclass(frozen=True)
