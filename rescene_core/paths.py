@@ -112,9 +112,13 @@ class RunPaths:
     def faults(self) -> Path:
         return self._at(FAULTS)
 
+    @property
+    def fault_counts(self) -> Path:
+        return self._at(FAULT_COUNTS)
+
     def fault_count(self, segment: str) -> Path:
         """How often the injected fault of one task (named like its log segment) has fired."""
-        return self._at(FAULT_COUNTS) / f"{segment}.count"
+        return self.fault_counts / f"{segment}.count"
 
     @property
     def results(self) -> Path:
