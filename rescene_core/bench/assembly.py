@@ -35,6 +35,7 @@ from rescene_core.assembly.scenes import grid_scene
 from rescene_core.assembly.transforms import rigid_change, rotation_about, translation
 from rescene_core.config import AttachmentConfig
 from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, RoomShell, Root, SceneGraph
 
 STAGES = ("none", "relations", "repair", "full")
@@ -421,7 +422,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
     run_dir = work_dir / "runs" / f"{preset}_seed{seed}"
     if not capture.exists():
         write_synth(capture, preset=preset, seed=seed)
-    if not (run_dir / "scene" / "scene.json").exists():
+    if not RunPaths(run_dir).scene_json.exists():
         cli = Path(sys.executable).with_name("rescene")
         done = subprocess.run([str(cli), "run", str(capture), "--out", str(run_dir)], capture_output=True, text=True)
         if done.returncode != 0:

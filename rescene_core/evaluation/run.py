@@ -14,13 +14,14 @@ import numpy as np
 import trimesh
 
 from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
+from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, RoomShell, SceneGraph
 
 
 def load_scene(run_dir: str | Path) -> dict[str, Any]:
     """scene.json with each object's mesh loaded: objects[i]["vertices"], ["faces"] (asset frame)."""
-    scene_dir = Path(run_dir) / "scene"
-    path = scene_dir / "scene.json"
+    run = RunPaths(run_dir)
+    scene_dir, path = run.scene, run.scene_json
     if not path.exists():
         raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
     doc = read_json(path)
@@ -73,8 +74,8 @@ def evaluate_run(run_dir: str | Path, capture: str | Path | None = None) -> dict
         objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
         metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
     metrics["summary"] = _summary(metrics)
-    write_json_atomic(run_dir / "eval" / "metrics.json", metrics)
-    write_bytes_atomic(run_dir / "eval" / "report.md", report(metrics).encode())
+    write_json_atomic(RunPaths(run_dir).metrics, metrics)
+    write_bytes_atomic(RunPaths(run_dir).report_md, report(metrics).encode())
     return metrics
 
 

@@ -19,11 +19,12 @@ from typing import Any
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
+from rescene_core import paths
 from rescene_core.io import _default, write_bytes_atomic
 from rescene_core.runlog.topics import schema_bytes
 
-SEGMENTS_DIR = Path("logs") / "segments"
-RUN_LOG = Path("logs") / "run.mcap"
+SEGMENTS_DIR = Path(paths.SEGMENTS)
+RUN_LOG = Path(paths.RUN_LOG)
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
 
