@@ -132,7 +132,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset)
 
 
-COMMAND_GROUPS: list[str] = []
+COMMAND_GROUPS: list[str] = ["importers"]
 """Modules of ``flows.cli`` that add sub-commands: each has ``register(sub)``, which adds its parsers to
 the ``add_subparsers`` object and sets ``func`` (``args -> exit code``) on each."""
 

@@ -1,0 +1,92 @@
+"""`rescene import FORMAT SRC OUT.zarr`: bring ScanNet scenes, RGB-D folders, nerfstudio folders and
+panoptic outputs into the capture format (docs/importing.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def _cmd_import(args: argparse.Namespace) -> int:
+    from rescene_core.capture.importers import FORMATS, ImportInputError, ImportOptions, import_capture, report_path
+
+    if args.format not in FORMATS:
+        print(f"unknown format {args.format!r}; formats: {', '.join(FORMATS)}", file=sys.stderr)
+        return 2
+    fields = {
+        "scene_id": args.scene_id,
+        "stride": args.stride,
+        "max_frames": args.max_frames,
+        "depth_scale": args.depth_scale,
+        "pose_convention": args.pose_convention,
+        "camera_axes": args.camera_axes,
+        "align": args.align,
+        "segment": args.segment,
+        "clip_model": str(args.clip_model) if args.clip_model else None,
+        "resolution": args.resolution,
+        "overwrite": args.overwrite,
+    }
+    if args.vocabulary:
+        fields["vocabulary"] = tuple(v.strip() for v in args.vocabulary.split(",") if v.strip())
+    extra = {}
+    if args.masks is not None:
+        extra["masks"] = args.masks
+    if args.labels is not None:
+        extra["labels"] = args.labels
+    if args.base is not None:
+        extra["base"] = args.base
+    try:
+        opts = ImportOptions(**{k: v for k, v in fields.items() if v is not None})
+        report = import_capture(args.format, args.src, args.out, opts, **extra)
+    except ImportInputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except FileExistsError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except TypeError as err:  # an option the format does not take
+        print(f"error: {args.format}: {err}", file=sys.stderr)
+        return 2
+    f, inst, al = report["frames"], report["instances"], report["alignment"]
+    print(
+        f"imported {report['src']} ({report['format']}) -> {report['out']}: {f['kept']} of {f['in_source']} frames "
+        f"({f['dropped']} dropped{': ' + str(f['dropped_by_reason']) if f['dropped'] else ''}), "
+        f"{inst['objects']} objects + {inst['structural']} structural instances by {report['segmenter']}, "
+        f"depth coverage {report['depth'].get('coverage_mean', 0):.0%}"
+    )
+    print(
+        f"alignment: {al['method']}, floor normal {al['floor_to_camera_up_deg']:.2f} deg from the cameras' up, "
+        f"{report['throughput_fps']:.2f} frames/s"
+    )
+    for note in report["notes"]:
+        print(f"note: {note}")
+    print(f"report: {report_path(args.out)}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("import", help="import a ScanNet scene, an RGB-D folder, a nerfstudio folder or panoptic output")
+    p.add_argument("format", help="scannet | rgbd | nerfstudio | panoptic")
+    p.add_argument("src", type=Path, help="the source folder")
+    p.add_argument("out", type=Path, help="output capture, e.g. room.zarr")
+    p.add_argument(
+        "--segment", choices=["none", "geometric"], help="geometric: label-free instances (TSDF + planes + clusters)"
+    )
+    p.add_argument("--clip-model", type=Path, help="local open_clip checkpoint to label geometric segments zero-shot")
+    p.add_argument("--vocabulary", help="comma-separated labels for --clip-model")
+    p.add_argument("--stride", type=int, help="keep every n-th frame")
+    p.add_argument("--max-frames", type=int, help="keep at most this many frames")
+    p.add_argument("--depth-scale", type=float, help="metres per depth unit (default 0.001: millimetres)")
+    p.add_argument("--pose-convention", choices=["cam_to_world", "world_to_cam"])
+    p.add_argument("--camera-axes", choices=["opencv", "opengl"])
+    p.add_argument("--align", choices=["floor", "none"], help="floor (default): z up, floor at z = 0")
+    p.add_argument("--resolution", choices=["depth", "color"], help="scannet: the image size kept")
+    p.add_argument("--masks", type=Path, help="panoptic: folder of per-frame instance-id PNGs (default SRC/instances)")
+    p.add_argument(
+        "--labels", type=Path, help="panoptic: labels.json (default SRC/labels.json); scannet: label map TSV"
+    )
+    p.add_argument("--base", choices=["rgbd", "scannet", "nerfstudio"], help="panoptic: the layout of the frames")
+    p.add_argument("--scene-id", help="name of the scene (default: the source folder's name)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing capture")
+    p.set_defaults(func=_cmd_import)

@@ -1,0 +1,241 @@
+"""The shared end of every importer: align, segment (when asked), fuse instance clouds, write the capture
+atomically, validate it before it is moved into place, and write the import report beside it.
+
+``OUT.zarr`` is either a complete, valid capture or absent (a failed import leaves what was there before);
+the report is ``OUT_import.json`` next to it and a copy sits in the capture's ``import`` attribute.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rescene_core.capture.align import (
+    AlignConfig,
+    apply_alignment,
+    estimate_alignment,
+    identity_alignment,
+    transform_points,
+)
+from rescene_core.capture.depth_points import DepthPointsConfig, instance_points, scene_points
+from rescene_core.capture.format import CaptureArrays, points_to_csr, write_capture
+from rescene_core.capture.importers.common import ImportInputError, ImportOptions, SourceFrames, is_structural
+from rescene_core.capture.validate import check_capture
+from rescene_core.io import atomic_directory, write_json_atomic
+from rescene_core.records import Instance, InstanceId
+
+
+def report_path(out: str | Path) -> Path:
+    """Where the import report of the capture at ``out`` goes: ``room.zarr`` -> ``room_import.json``."""
+    p = Path(out)
+    stem = p.name[: -len(".zarr")] if p.name.endswith(".zarr") else p.name
+    return p.parent / f"{stem}_import.json"
+
+
+def _depth_stats(depth: np.ndarray | None) -> dict[str, Any]:
+    if depth is None:
+        return {"present": False}
+    valid = depth > 0
+    per_frame = valid.reshape(len(depth), -1).mean(axis=1)
+    sample = depth[:, ::4, ::4]
+    return {
+        "present": True,
+        "coverage_mean": round(float(per_frame.mean()), 4),
+        "coverage_min": round(float(per_frame.min()), 4),
+        "median_m": round(float(np.median(sample[sample > 0])), 4) if (sample > 0).any() else 0.0,
+    }
+
+
+def finish_import(
+    frames: SourceFrames,
+    out: str | Path,
+    opts: ImportOptions,
+    started: float,
+    align_config: AlignConfig | None = None,
+    points_config: DepthPointsConfig | None = None,
+    segment_config: Any = None,
+) -> dict[str, Any]:
+    """Turn read frames into a capture at ``out``; returns the import report (also written beside it)."""
+    out = Path(out)
+    timings: dict[str, float] = {"read": time.perf_counter() - started}
+    if out.exists() and not opts.overwrite:
+        raise FileExistsError(f"{out} exists; pass --overwrite or choose another path")
+    if frames.depth is None:
+        raise ImportInputError(
+            f"{frames.src}: the source has no depth; instance point clouds and the floor need metric depth "
+            "(fix: add depth maps, e.g. depth_file_path in transforms.json)"
+        )
+    T = len(frames.names)
+
+    t = time.perf_counter()
+    if opts.align == "floor":
+        fused = scene_points(frames.depth, frames.K, frames.world_from_cam)
+        try:
+            alignment = estimate_alignment(fused, frames.world_from_cam, align_config)
+        except ValueError as err:
+            raise ImportInputError(f"{frames.src}: cannot find gravity ({err}); pass --align none") from err
+    else:
+        alignment = identity_alignment(frames.world_from_cam)
+    world_from_cam = apply_alignment(alignment, frames.world_from_cam)
+    timings["align"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    segment_report: dict[str, Any]
+    labels = dict(frames.labels)
+    if frames.render_masks is not None and opts.segment != "geometric":
+        frames.render_masks(frames)
+    if opts.segment == "geometric":
+        from rescene_core.segment import SegmentError, segment_geometric
+
+        try:
+            seg = segment_geometric(
+                frames.rgb, frames.depth, frames.K, world_from_cam, segment_config, opts.clip_model,
+                opts.clip_model_name, opts.vocabulary,
+            )  # fmt: skip
+        except SegmentError as err:
+            raise ImportInputError(f"{frames.src}: {err}") from err
+        if frames.masks is not None:
+            frames.notes.append("the source's masks were replaced by the geometric segmentation (--segment geometric)")
+        masks = seg.masks
+        labels = {i: (lab, st) for i, (lab, st) in seg.labels.items()}
+        segmenter = seg.segmenter
+        segment_report = seg.report
+    elif frames.masks is not None:
+        masks = frames.masks
+        segmenter = frames.source + "-masks"
+        segment_report = {"segmenter": segmenter}
+    else:
+        raise ImportInputError(
+            f"{frames.src}: the source has no instance masks (fix: pass --segment geometric for label-free "
+            "instances, or import with the panoptic format and a folder of instance PNGs)"
+        )
+    timings["segment"] = time.perf_counter() - t
+
+    if masks.min() < 0 or masks.max() > np.iinfo(np.int32).max:
+        raise ImportInputError(f"{frames.src}: instance ids outside 0..2^31-1; renumber the instance PNGs")
+    masks = masks.astype(np.int32)
+    counts = np.bincount(masks.ravel())
+    present = [int(i) for i in np.flatnonzero(counts) if i > 0]
+    structural = {i for i in present if labels.get(i, ("object", False))[1]}
+
+    t = time.perf_counter()
+    clouds, point_stats = instance_points(
+        frames.depth, masks, frames.rgb, frames.K, world_from_cam, structural, points_config
+    )
+    timings["points"] = time.perf_counter() - t
+    instances = [Instance(InstanceId(i), labels.get(i, ("object", False))[0], i in structural) for i in present]
+    objects_with_points = [i for i in present if i not in structural and i in clouds]
+    if not objects_with_points:
+        raise ImportInputError(
+            f"{frames.src}: empty scene: no object instance has depth points after {segmenter} "
+            f"({len(present)} ids in the masks, {len(structural)} structural); check the masks and depth, "
+            "or lower the segmenter's minimum size"
+        )
+    point_ids, offsets, points, colors = points_to_csr(clouds)
+    depth_stats = _depth_stats(frames.depth)
+    reasons = Counter(d.reason.split(":")[0] for d in frames.dropped)
+    report: dict[str, Any] = {
+        "format": frames.source,
+        "src": str(frames.src),
+        "out": str(out),
+        "scene_id": opts.scene_id or frames.src.name,
+        "segmenter": segmenter,
+        "frames": {
+            "in_source": int(frames.frames_in_source),
+            "kept": T,
+            "dropped": len(frames.dropped),
+            "dropped_by_reason": dict(sorted(reasons.items())),
+            "dropped_frames": [d.to_json() for d in frames.dropped],
+            "stride": opts.stride,
+        },
+        "image_size": [int(frames.rgb.shape[2]), int(frames.rgb.shape[1])],
+        "depth": depth_stats,
+        "instances": {
+            "total": len(instances),
+            "objects": sum(1 for i in instances if not i.structural),
+            "structural": len(structural),
+            "objects_with_points": len(objects_with_points),
+            "labels": dict(sorted(Counter(i.label for i in instances).items())),
+        },
+        "points": {"total": int(len(points)), **point_stats},
+        "alignment": alignment.to_json(),
+        "segmentation": segment_report,
+        "notes": list(frames.notes),
+    }
+    source = f"{frames.source}+{segmenter}" if not segmenter.startswith(frames.source) else segmenter
+    arrays = CaptureArrays(
+        scene_id=report["scene_id"],
+        rgb=frames.rgb,
+        K=frames.K.astype(np.float64),
+        world_from_cam=world_from_cam,
+        instance_masks=masks,
+        instances=tuple(instances),
+        point_ids=point_ids,
+        point_offsets=offsets,
+        points=points,
+        colors=colors,
+        depth=frames.depth.astype(np.float32),
+        source=source,
+        extra_attrs={
+            "alignment": alignment.to_json(),
+            "import": {k: v for k, v in report.items() if k not in ("segmentation",)} | {"frame_names": frames.names},
+        },
+    )
+    t = time.perf_counter()
+    write_validated(out, arrays)
+    timings["write"] = time.perf_counter() - t
+    elapsed = time.perf_counter() - started
+    report["timings_s"] = {k: round(v, 3) for k, v in timings.items()} | {"total": round(elapsed, 3)}
+    report["throughput_fps"] = round(T / max(elapsed, 1e-9), 3)
+    write_json_atomic(report_path(out), report)
+    return report
+
+
+def write_validated(out: Path, arrays: CaptureArrays) -> Path:
+    """Write the capture into a temporary sibling, validate it there, then move it into place."""
+    with atomic_directory(out) as tmp:
+        write_capture(tmp, arrays, overwrite=True)
+        errors = [p for p in check_capture(tmp) if p.severity == "error"]
+        if errors:
+            lines = "; ".join(str(p) for p in errors[:5])
+            raise ImportInputError(f"{out}: the imported capture does not validate ({lines})")
+    return out
+
+
+def aligned_points(alignment_json: dict[str, Any], points: np.ndarray) -> np.ndarray:
+    """Source-frame points [n, 3] in a capture's aligned frame (its ``alignment`` attribute)."""
+    return transform_points(np.asarray(alignment_json["aligned_from_source"]), points)
+
+
+def labels_from_json(data: Any, where: Path) -> dict[int, tuple[str, bool]]:
+    """A labels file: {"id": "label"}, {"id": {"label", "structural"}} or [{"id", "label", "structural"}]."""
+    out: dict[int, tuple[str, bool]] = {}
+    items: list[tuple[Any, Any]]
+    if isinstance(data, dict):
+        items = list(data.items())
+    elif isinstance(data, list):
+        items = [(d.get("id"), d) if isinstance(d, dict) else (None, d) for d in data]
+    else:
+        raise ImportInputError(f"{where}: expected an object {{id: label}} or a list of {{id, label}} records")
+    for key, val in items:
+        try:
+            iid = int(key)
+        except (TypeError, ValueError):
+            raise ImportInputError(f"{where}: instance id {key!r} is not an integer") from None
+        if iid <= 0:
+            raise ImportInputError(f"{where}: instance id {iid} must be positive (0 means 'no instance')")
+        if isinstance(val, str):
+            label, structural = val, is_structural(val)
+        elif isinstance(val, dict) and isinstance(val.get("label"), str):
+            label = val["label"]
+            structural = bool(val.get("structural", is_structural(label)))
+        else:
+            raise ImportInputError(f"{where}: instance {iid} has no label string ({val!r})")
+        if not label.strip():
+            raise ImportInputError(f"{where}: instance {iid} has an empty label")
+        out[iid] = (label.strip(), structural)
+    return out
