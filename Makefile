@@ -15,7 +15,7 @@ PREFECT_API_URL ?= http://127.0.0.1:4200/api
 POOL ?= rescene-local
 
 .DEFAULT_GOAL := help
-.PHONY: help setup system-deps demo test check lint format bench server worker deploy clean
+.PHONY: help setup system-deps demo test test-fast typecheck check lint format bench server worker deploy clean
 
 help: ## list the targets
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -42,8 +42,11 @@ setup: $(STAMP) ## create .venv and install ReScene with its CPU dependencies
 demo: $(STAMP) ## synthetic standard capture -> the rescene flow -> where to look
 	$(RESCENE) demo --out $(DEMO_DIR) --preset $(PRESET) --seed $(SEED)
 
-test: $(STAMP) ## run the test suite
-	PREFECT_SERVER_ANALYTICS_ENABLED=false $(PY) -m pytest
+test: $(STAMP) ## run the whole test suite, slow tests included (what CI runs), with the 15 slowest listed
+	PREFECT_SERVER_ANALYTICS_ENABLED=false $(PY) -m pytest --durations=15
+
+test-fast: $(STAMP) ## the test suite without the slow-marked tests (the edit loop)
+	PREFECT_SERVER_ANALYTICS_ENABLED=false $(PY) -m pytest -m "not slow" --durations=10
 
 lint: $(STAMP) ## ruff lint and format check
 	$(VENV)/bin/ruff check .
@@ -53,7 +56,10 @@ format: $(STAMP) ## apply ruff formatting and safe fixes
 	$(VENV)/bin/ruff check --fix .
 	$(VENV)/bin/ruff format .
 
-check: lint test ## lint + tests, what CI runs
+typecheck: $(STAMP) ## mypy on the library (settings in pyproject.toml [tool.mypy])
+	$(PY) -m mypy rescene_core
+
+check: lint typecheck test ## lint + type check + the whole test suite
 
 bench: $(STAMP) ## run every benchmark suite (SEEDS=0-4) into $(BENCH_DIR)/
 	@for s in $$($(RESCENE) bench --list); do $(RESCENE) bench $$s --out $(BENCH_DIR) --seeds $(SEEDS) || exit 1; done

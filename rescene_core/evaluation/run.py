@@ -8,7 +8,7 @@ against it (``rescene_core.evaluation.ground_truth``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import trimesh
@@ -26,7 +26,8 @@ def load_scene(run_dir: str | Path) -> dict[str, Any]:
         raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
     doc = read_json(path)
     for obj in doc["objects"]:
-        mesh = trimesh.load(scene_dir / obj["mesh"], force="mesh", process=False)
+        # force="mesh" always gives a Trimesh; the stubs type load() as any Geometry
+        mesh = cast(trimesh.Trimesh, trimesh.load(scene_dir / obj["mesh"], force="mesh", process=False))
         obj["vertices"] = np.asarray(mesh.vertices, dtype=np.float64)
         obj["faces"] = np.asarray(mesh.faces, dtype=np.int64)
     return doc

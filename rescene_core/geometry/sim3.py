@@ -73,9 +73,9 @@ def check_sim3(m: Matrix4, atol: float = 1e-6) -> list[str]:
         scale, rot, _ = parts_from_sim3(m)
     except Sim3Error as err:
         return [*problems, str(err)]
-    err = np.abs(rot.T @ rot - np.eye(3)).max()
-    if err > atol:
-        problems.append(f"linear part is not a scaled rotation (|R^T R - I| = {err:.2e})")
+    deviation = np.abs(rot.T @ rot - np.eye(3)).max()
+    if deviation > atol:
+        problems.append(f"linear part is not a scaled rotation (|R^T R - I| = {deviation:.2e})")
     return problems
 
 

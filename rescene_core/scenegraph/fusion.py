@@ -102,7 +102,7 @@ def _weights(config: SceneGraphConfig, with_shell: bool) -> dict[str, float]:
 
 def _proposals(child: InstanceGeometry, geometry: dict[InstanceId, InstanceGeometry], config) -> list[InstanceId]:
     """Objects whose upward faces could hold ``child`` (cheap bounding-box test, then the support prior)."""
-    out = []
+    out: list[InstanceId] = []
     if child.empty:
         return out
     lo, hi = child.points[:, :2].min(axis=0), child.points[:, :2].max(axis=0)
@@ -139,7 +139,7 @@ def _ab_recheck(
         key=lambda p: -next(v.pixels for v in p.visible if v.instance == child),
     )
     votes = {"A": 0, "B": 0}
-    calls = []
+    calls: list[dict[str, Any]] = []
     for pred in frames:
         if len(calls) >= config.ab_frames:
             break
@@ -247,8 +247,8 @@ def fuse_with_report(
         rows = []
         for cand in sorted(cands, key=_key):
             rel, parent = cand
-            v = votes[c].get(cand, 0) / seen[c] if seen[c] else 0.0
-            row: dict[str, Any] = {"candidate": cand, "V": v, "G": 0.0, "Phi": 0.0, "shell": 0.0}
+            share = votes[c].get(cand, 0) / seen[c] if seen[c] else 0.0
+            row: dict[str, Any] = {"candidate": cand, "V": share, "G": 0.0, "Phi": 0.0, "shell": 0.0}
             if variant == "full":
                 row["G"] = geometric_prior(geometry[c], parent, geometry, shell_used, config)
                 if rel == Relation.MOUNTS_ON and not isinstance(parent, Root):

@@ -42,7 +42,7 @@ def refit_from_paths(paths: list[str | Path], add_to: str | Path | None = None) 
     base = load_prior(add_to) if add_to is not None else None
     names = ", ".join(Path(p).name for p in paths[:5]) + (" ..." if len(paths) > 5 else "")
     provenance = f"Counted by `rescene prior-refit` over {len(paths)} scene graph(s): {names}"
-    if base is not None:
+    if base is not None and add_to is not None:
         provenance += f"; added to {Path(add_to).name} ({base.provenance})"
     return refit_prior((graphs_from(p) for p in paths), provenance, base)
 

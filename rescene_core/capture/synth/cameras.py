@@ -185,7 +185,7 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
         walk_s.append(s)
     walk_xy = np.array([pp[:2, 3] for pp, k in zip(poses, kinds) if k == "walk"])
     walk_order = np.array(walk_s)
-    keys = []
+    keys: list[tuple[float, float, int]] = []
     for pp, kind in zip(poses, kinds):
         if kind == "walk":
             keys.append((float(walk_order[len([1 for q in keys if q[2] == 0])]), 0.0, 0))

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from shapely.geometry import Polygon, box
 from shapely.prepared import prep
 
-from rescene_core.capture.synth.objects import CATEGORIES, ObjectModel, Support
+from rescene_core.capture.synth.objects import CATEGORIES, ObjectModel, Support, book_stack
 from rescene_core.capture.synth.presets import SynthPreset
 from rescene_core.records import Plane, Relation, RoomShell, Root, WallPlane
 
@@ -116,6 +116,8 @@ class Layout:
         self.objects: list[Placed] = []
         self.inner = prep(room.polygon.buffer(-1e-4))
         self.keepout: list[Polygon] = []
+        self.door: tuple[int, float] | None = None
+        """(wall id, position along the wall) of the door whose swing area stays free, once placed."""
 
     # -- checks ------------------------------------------------------------------------------------------
 
@@ -455,7 +457,7 @@ def furnish(room: Room, preset: SynthPreset, rng: np.random.Generator) -> Layout
         for base in list(stacks):
             if rng.uniform() < 0.6 and base.model.supports:
                 sup = base.model.supports[0]
-                small = CATEGORIES["book stack"](rng, fit=(sup.x1 - sup.x0, sup.y1 - sup.y0))
+                small = book_stack(rng, fit=(sup.x1 - sup.x0, sup.y1 - sup.y0))
                 step(lay.on, base, small, facing=True, yaw_jitter=0.05)
     # on walls
     if cabinets and rng.uniform() < 0.7:

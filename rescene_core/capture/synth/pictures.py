@@ -78,7 +78,9 @@ def contact_sheet(scene, frames: int = 12, columns: int = 4, tile_width: int = 3
     draw = ImageDraw.Draw(sheet)
     for k, t in enumerate(picks):
         ids = a.instance_masks[t]
-        img = Image.fromarray(overlay(a.rgb[t], ids, colors, faint=structural)).resize((tw, th), Image.BILINEAR)
+        img = Image.fromarray(overlay(a.rgb[t], ids, colors, faint=structural)).resize(
+            (tw, th), Image.Resampling.BILINEAR
+        )
         x0, y0 = (k % columns) * tw, (k // columns) * (th + 14)
         sheet.paste(img, (x0, y0 + 14))
         draw.text((x0 + 3, y0 + 1), f"frame {t} ({kinds[t]})", fill=(0, 0, 0))

@@ -164,7 +164,8 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     root_rng = np.random.default_rng(seed)
-    rngs = [np.random.default_rng(s) for s in root_rng.bit_generator.seed_seq.spawn(6)]
+    # default_rng(int) holds a SeedSequence; the stubs type it as the ISeedSequence interface, which has no spawn
+    rngs = [np.random.default_rng(s) for s in root_rng.bit_generator.seed_seq.spawn(6)]  # type: ignore[attr-defined]
     rng_layout, rng_cam, rng_look, rng_err, rng_frames, rng_ids = rngs
     room = random_room(rng_layout, cfg)
     lay = furnish(room, cfg, rng_layout)
