@@ -27,6 +27,7 @@ from rescene_core.assembly.collision import CollisionWorld
 from rescene_core.assembly.depenetrate import depenetrate
 from rescene_core.assembly.graph import build_forest
 from rescene_core.assembly.objects import AssemblyObject, check_object
+from rescene_core.assembly.operations import Operation
 from rescene_core.assembly.propagate import propagate
 from rescene_core.assembly.refine import (
     bed_wall,
@@ -149,7 +150,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     for i in sorted(base.unfit):
         base.log(i, "input", "note", reason="footprint cannot fit inside the room; repairs leave it in place")
     for note in room.notes:
-        base.operations.append({"instance": None, "branch": "all", "stage": "input", "rule": "note", "reason": note})
+        base.operations.append(Operation(None, "all", "input", "note", {"reason": note}))
     for edge, reason in forest.skipped:
         base.log(edge.child, "input", "skip edge", reason=reason, edge=edge.to_json())
     world = CollisionWorld(valid)
@@ -162,6 +163,6 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         final = wall_state
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},
-        operations=tuple(final.operations),
+        operations=tuple(op.to_json() for op in final.operations),
         missing=tuple(missing),
     )

@@ -11,13 +11,10 @@ from shapely.geometry import Polygon
 
 from rescene_core.assembly.graph import Forest
 from rescene_core.assembly.objects import AssemblyObject, footprint
+from rescene_core.assembly.operations import Operation
 from rescene_core.assembly.room import Room
 from rescene_core.config import AttachmentConfig
 from rescene_core.records import InstanceId
-
-
-def _round(m: NDArray) -> list[list[float]]:
-    return np.round(np.asarray(m, dtype=np.float64), 9).tolist()
 
 
 @dataclass
@@ -34,7 +31,7 @@ class LayoutState:
     config: AttachmentConfig
     branch: str = "wall-aware"
     delta: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
-    operations: list[dict[str, Any]] = field(default_factory=list)
+    operations: list[Operation] = field(default_factory=list)
     wall_of: dict[InstanceId, int] = field(default_factory=dict)
     """Concrete wall each wall-mounted object was attached to."""
     unfit: frozenset[InstanceId] = frozenset()
@@ -97,15 +94,9 @@ class LayoutState:
         self._version[i] += 1
         self.log(i, stage, rule, **info)
 
-    def log(self, i: InstanceId, stage: str, rule: str, **info: Any) -> None:
-        record: dict[str, Any] = {"instance": int(i), "branch": self.branch, "stage": stage, "rule": rule}
-        for key, value in info.items():
-            if isinstance(value, np.ndarray):
-                value = _round(value) if value.ndim == 2 else np.round(value, 9).tolist()
-            elif isinstance(value, np.floating | float):
-                value = round(float(value), 9)
-            record[key] = value
-        self.operations.append(record)
+    def log(self, i: InstanceId | None, stage: str, rule: str, **info: Any) -> None:
+        """Record an operation on object i (None: the whole scene) in this branch."""
+        self.operations.append(Operation(None if i is None else int(i), self.branch, stage, rule, info))
 
     def skip(self, i: InstanceId, stage: str, reason: str) -> None:
         """Record that a rule did not apply to object i, and why."""
