@@ -1,0 +1,444 @@
+"""Geometry metrics as the field reports them (the MonoSDF / DP-Recon protocol, paper Appendix
+'Geometry Metrics').
+
+Both surfaces become point sets, either
+
+- ``sampled``: points drawn uniformly on the mesh surfaces (area-weighted, face normals), or
+- ``refused``: depth rendered along the capture's cameras (``rescene_core.render.RayCaster``) and fused
+  (``fuse_depth``: back-projected, averaged per voxel): surfaces no camera saw (the insides of
+  furniture, the backs against walls) do not count;
+
+then both are downsampled to ``voxel_size`` voxels (2 cm). With d(p, Q) the distance from p to its
+nearest neighbour in Q:
+
+- accuracy = mean over predicted points of d(p, reference), completion = mean over reference points of
+  d(q, prediction), Chamfer = (accuracy + completion) / 2 (metres);
+- precision@t = fraction of predicted points with d < t, recall@t = fraction of reference points with
+  d < t, F@t = 2 P R / (P + R), for t = 5 cm and 10 cm;
+- normal consistency = mean over both directions of |cos| between a point's normal and its nearest
+  neighbour's normal;
+- centre offset = distance between the centres of the two point sets' bounding boxes (m).
+
+Frames: world metres, z up. The sensor reference of a capture with depth is ``fuse_depth`` of its own
+depth frames; fused points are labelled with the capture instance of the nearest instance point.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict
+from scipy.spatial import cKDTree
+
+from rescene_core.records import Camera
+
+
+class GeometryConfig(BaseModel):
+    """Sampling, downsampling, thresholds and re-fusion of the geometry metrics."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+
+    voxel_size: float = 0.02
+    """Voxel downsampling of both point sets before the distances (m; MonoSDF / DP-Recon use 2 cm)."""
+    thresholds: tuple[float, ...] = (0.05, 0.10)
+    """Distance thresholds of precision, recall and F-score (m; the paper reports F@5 cm)."""
+    samples_per_m2: float = 10000.0
+    """Surface samples per square metre in the ``sampled`` mode (before downsampling)."""
+    min_samples: int = 200
+    """Fewest samples of one mesh in the ``sampled`` mode."""
+    max_samples: int = 300000
+    """Most samples of one mesh set in the ``sampled`` mode."""
+    seed: int = 0
+    """Seed of the surface sampling."""
+    fuse_voxel: float = 0.02
+    """Voxel length of the depth fusion (m)."""
+    depth_max: float = 8.0
+    """Depth beyond this is not fused (m)."""
+    fuse_scale: float = 0.5
+    """Image scale of the depth frames that are fused (1 = full resolution)."""
+    fuse_stride: int = 2
+    """Fuse every n-th capture camera."""
+    label_radius: float = 0.05
+    """A fused point takes the instance of the nearest labelled point within this distance (m), else none."""
+
+
+@dataclass(frozen=True)
+class PointSet:
+    """Points float64 [n, 3] (world, m), unit normals float64 [n, 3] or None, and a label per point
+    int64 [n] (instance id; 0 = none) or None."""
+
+    points: NDArray[np.float64]
+    normals: NDArray[np.float64] | None = None
+    labels: NDArray[np.int64] | None = None
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def select(self, mask: NDArray[np.bool_]) -> PointSet:
+        return PointSet(
+            self.points[mask],
+            None if self.normals is None else self.normals[mask],
+            None if self.labels is None else self.labels[mask],
+        )
+
+    @staticmethod
+    def concatenate(sets: Sequence[PointSet]) -> PointSet:
+        sets = [s for s in sets if len(s)]
+        if not sets:
+            return PointSet(np.zeros((0, 3)))
+        normals = None if any(s.normals is None for s in sets) else np.concatenate([s.normals for s in sets])
+        labels = None if any(s.labels is None for s in sets) else np.concatenate([s.labels for s in sets])
+        return PointSet(np.concatenate([s.points for s in sets]), normals, labels)
+
+
+def sample_surface(mesh: trimesh.Trimesh, n: int, seed: int = 0, label: int = 0) -> PointSet:
+    """``n`` points drawn uniformly on the surface of ``mesh``, with face normals and ``label``."""
+    if len(mesh.faces) == 0 or mesh.area <= 0 or n <= 0:
+        return PointSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
+    points, face = trimesh.sample.sample_surface(mesh, n, seed=seed)
+    normals = np.asarray(mesh.face_normals, np.float64)[face]
+    return PointSet(np.asarray(points, np.float64), normals, np.full(len(points), int(label), np.int64))
+
+
+def sample_meshes(meshes: Mapping[int, trimesh.Trimesh], config: GeometryConfig) -> PointSet:
+    """Area-proportional samples of labelled meshes (label = key), at most ``max_samples`` in all."""
+    area = {k: float(m.area) for k, m in meshes.items() if len(m.faces)}
+    total = sum(area.values())
+    if total <= 0:
+        return PointSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
+    density = min(config.samples_per_m2, config.max_samples / total)
+    return PointSet.concatenate(
+        [
+            sample_surface(meshes[k], max(config.min_samples, int(round(a * density))), config.seed + k % 9973, k)
+            for k, a in sorted(area.items())
+        ]
+    )
+
+
+def downsample(points: PointSet, voxel: float) -> PointSet:
+    """One point per occupied ``voxel`` (the mean of its points, as Open3D's ``voxel_down_sample``, with
+    the grid anchored at the minimum bound less half a voxel); normals are averaged and renormalised,
+    labels take the most frequent label of the voxel."""
+    if len(points) == 0 or voxel <= 0:
+        return points
+    pts = points.points
+    cell = np.floor((pts - (pts.min(0) - voxel / 2)) / voxel).astype(np.int64)
+    dims = cell.max(0) + 1
+    key = (cell[:, 2] * dims[1] + cell[:, 1]) * dims[0] + cell[:, 0]
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    n = len(counts)
+
+    def mean(values: NDArray) -> NDArray[np.float64]:
+        out = np.zeros((n, values.shape[1]))
+        for c in range(values.shape[1]):
+            out[:, c] = np.bincount(inverse, weights=values[:, c], minlength=n)
+        return out / counts[:, None]
+
+    normals = None
+    if points.normals is not None:
+        normals = mean(points.normals)
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    labels = None
+    if points.labels is not None:
+        # most frequent label per voxel: count (voxel, label) pairs, keep each voxel's largest count
+        lab_values, lab_index = np.unique(points.labels, return_inverse=True)
+        pair, pair_counts = np.unique(inverse * len(lab_values) + lab_index, return_counts=True)
+        voxel_of, label_of = pair // len(lab_values), pair % len(lab_values)
+        order = np.lexsort((-pair_counts, voxel_of))
+        first = np.concatenate([[True], np.diff(voxel_of[order]) != 0])
+        labels = np.zeros(n, np.int64)
+        labels[voxel_of[order][first]] = lab_values[label_of[order][first]]
+    return PointSet(mean(pts), normals, labels)
+
+
+def point_metrics(pred: PointSet, ref: PointSet, thresholds: Iterable[float] = (0.05, 0.10)) -> dict[str, Any]:
+    """Accuracy, completion, Chamfer, precision / recall / F at each threshold, normal consistency and
+    centre offset of two (already downsampled) point sets; None where a set is empty."""
+    thresholds = tuple(thresholds)
+    out: dict[str, Any] = {"points_pred": len(pred), "points_ref": len(ref)}
+    keys = ["accuracy", "completion", "chamfer", "normal_consistency", "centre_offset"]
+    for t in thresholds:
+        keys += [f"precision@{_cm(t)}", f"recall@{_cm(t)}", f"fscore@{_cm(t)}"]
+    if len(pred) == 0 or len(ref) == 0:
+        return {**out, **{k: None for k in keys}}
+    d_acc, i_acc = cKDTree(ref.points).query(pred.points, workers=-1)
+    d_comp, i_comp = cKDTree(pred.points).query(ref.points, workers=-1)
+    out["accuracy"] = float(d_acc.mean())
+    out["completion"] = float(d_comp.mean())
+    out["chamfer"] = (out["accuracy"] + out["completion"]) / 2
+    for t in thresholds:
+        p, r = float((d_acc < t).mean()), float((d_comp < t).mean())
+        out[f"precision@{_cm(t)}"] = p
+        out[f"recall@{_cm(t)}"] = r
+        out[f"fscore@{_cm(t)}"] = 2 * p * r / (p + r) if p + r > 0 else 0.0
+    if pred.normals is not None and ref.normals is not None:
+        c_acc = np.abs(np.einsum("ij,ij->i", pred.normals, ref.normals[i_acc]))
+        c_comp = np.abs(np.einsum("ij,ij->i", ref.normals, pred.normals[i_comp]))
+        out["normal_consistency"] = float((c_acc.mean() + c_comp.mean()) / 2)
+    else:
+        out["normal_consistency"] = None
+    centre = [0.5 * (s.points.min(0) + s.points.max(0)) for s in (pred, ref)]
+    out["centre_offset"] = float(np.linalg.norm(centre[0] - centre[1]))
+    return out
+
+
+def _cm(t: float) -> str:
+    return f"{round(t * 100):d}cm"
+
+
+def scaled_camera(camera: Camera, scale: float) -> Camera:
+    """``camera`` with its image scaled by ``scale`` (pixel centres kept consistent)."""
+    if scale == 1:
+        return camera
+    w, h = max(1, int(round(camera.width * scale))), max(1, int(round(camera.height * scale)))
+    K = np.array(camera.K, np.float64)
+    sx, sy = w / camera.width, h / camera.height
+    K[0, 0] *= sx
+    K[0, 2] *= sx
+    K[1, 1] *= sy
+    K[1, 2] *= sy
+    return Camera(K, camera.world_from_cam, w, h)
+
+
+def backproject(depth: NDArray, camera: Camera, max_step: float = 0.05) -> PointSet:
+    """World points [n, 3] of the valid pixels of a depth map float32 [H, W] (metres along camera z,
+    0 = invalid) with unit normals facing the camera from the depth gradients; pixels whose right or lower
+    neighbour is invalid or more than ``max_step`` times their depth away (a depth edge) are left out."""
+    depth = np.asarray(depth, np.float64)
+    h, w = depth.shape
+    K = camera.K
+    u = (np.arange(w) + 0.5 - K[0, 2]) / K[0, 0]
+    v = (np.arange(h) + 0.5 - K[1, 2]) / K[1, 1]
+    cam = np.stack([u[None, :] * depth, v[:, None] * depth, depth], -1)
+    dx, dy = cam[:-1, 1:] - cam[:-1, :-1], cam[1:, :-1] - cam[:-1, :-1]
+    d0 = depth[:-1, :-1]
+    ok = (d0 > 0) & (depth[:-1, 1:] > 0) & (depth[1:, :-1] > 0)
+    ok &= (np.abs(dx[..., 2]) < max_step * d0) & (np.abs(dy[..., 2]) < max_step * d0)
+    normal = np.cross(dx[ok], dy[ok])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    pts = cam[:-1, :-1][ok]
+    normal *= np.where(np.einsum("ij,ij->i", normal, pts) > 0, -1.0, 1.0)[:, None]
+    rot, t = camera.world_from_cam[:3, :3], camera.world_from_cam[:3, 3]
+    return PointSet(pts @ rot.T + t, normal @ rot.T)
+
+
+def fuse_depth(frames: Iterable[tuple[NDArray, Camera]], config: GeometryConfig) -> PointSet:
+    """Fusion of depth maps float32 [H, W] (metres along camera z, 0 = invalid) seen by their cameras:
+    every valid pixel is back-projected (``backproject``, up to ``depth_max``) and the points of each
+    ``fuse_voxel`` voxel are averaged, normals too. Only surfaces some camera saw get points.
+
+    (A TSDF, Open3D ``ScalableTSDFVolume`` or ``VoxelBlockGrid``, would be the usual choice; with open3d
+    0.20.0 on the development machine both integrate nothing and extract empty volumes, and the dense
+    ``UniformTSDFVolume`` takes 16 s to allocate one room at 2 cm, so the fusion averages per voxel.)"""
+    sets = []
+    for depth, camera in frames:
+        depth = np.where(np.asarray(depth) <= config.depth_max, depth, 0.0)
+        pts = backproject(depth, camera)
+        if len(pts):
+            sets.append(pts)
+    return downsample(PointSet.concatenate(sets), config.fuse_voxel)
+
+
+def rendered_depths(
+    meshes: Mapping[int, trimesh.Trimesh], cameras: Sequence[Camera], config: GeometryConfig
+) -> Iterable[tuple[NDArray[np.float32], Camera]]:
+    """Depth of ``meshes`` rendered along ``cameras`` (scaled by ``fuse_scale``), with the projects's ray caster."""
+    from rescene_core.render import RayCaster, RenderMesh
+
+    render = [
+        RenderMesh.uniform(k if k != 0 else -999999, m.vertices, m.faces, (0.5, 0.5, 0.5))
+        for k, m in meshes.items()
+        if len(m.faces)
+    ]
+    caster = RayCaster(render)
+    for camera in cameras:
+        cam = scaled_camera(camera, config.fuse_scale)
+        yield caster.cast_camera(cam).depth, cam
+
+
+def label_points(points: PointSet, labelled: PointSet, radius: float) -> PointSet:
+    """``points`` with the label of their nearest point in ``labelled`` when within ``radius``, else 0."""
+    if len(points) == 0 or len(labelled) == 0 or labelled.labels is None:
+        return PointSet(points.points, points.normals, np.zeros(len(points), np.int64))
+    d, i = cKDTree(labelled.points).query(points.points, workers=-1)
+    return PointSet(points.points, points.normals, np.where(d <= radius, labelled.labels[i], 0).astype(np.int64))
+
+
+def refuse(meshes: Mapping[int, trimesh.Trimesh], cameras: Sequence[Camera], config: GeometryConfig) -> PointSet:
+    """The ``refused`` point set of labelled meshes: depth rendered along ``cameras`` and fused; each
+    fused point takes the label of the nearest mesh (within ``label_radius``)."""
+    fused = fuse_depth(rendered_depths(meshes, cameras, config), config)
+    return label_points(fused, sample_meshes(meshes, config), config.label_radius)
+
+
+def compare(pred: PointSet, ref: PointSet, config: GeometryConfig) -> dict[str, Any]:
+    """``point_metrics`` of the two sets after voxel downsampling."""
+    return point_metrics(downsample(pred, config.voxel_size), downsample(ref, config.voxel_size), config.thresholds)
+
+
+def per_label(
+    pred: PointSet, ref: PointSet, pairs: Mapping[int, Iterable[int]], config: GeometryConfig
+) -> dict[int, dict[str, Any]]:
+    """Metrics per predicted label: pairs maps a predicted label to the reference labels it is compared
+    with (both sets labelled; each is downsampled once)."""
+    pred_d, ref_d = downsample(pred, config.voxel_size), downsample(ref, config.voxel_size)
+    out = {}
+    for p, refs in pairs.items():
+        refs = list(refs)
+        out[int(p)] = point_metrics(
+            pred_d.select(pred_d.labels == p), ref_d.select(np.isin(ref_d.labels, refs)), config.thresholds
+        )
+    return out
+
+
+def capture_cameras(capture: Any, frames: Sequence[int] | None, stride: int) -> list[Camera]:
+    """The capture's cameras (all frames or ``frames``), every ``stride``-th."""
+    idx = list(range(capture.num_frames)) if frames is None else list(frames)
+    return [capture.camera(t) for t in idx[:: max(1, stride)]]
+
+
+def sensor_reference(capture: Any, config: GeometryConfig) -> PointSet:
+    """Fusion (``fuse_depth``) of the capture's own depth frames (every ``fuse_stride``-th, at ``fuse_scale``), each
+    fused point labelled with the capture instance of the nearest instance point (0 = none)."""
+    from PIL import Image
+
+    if capture.depth is None:
+        raise ValueError(f"{capture.path} has no frames/depth")
+
+    def frames():
+        for t in range(0, capture.num_frames, max(1, config.fuse_stride)):
+            cam = scaled_camera(capture.camera(t), config.fuse_scale)
+            depth = np.asarray(capture.depth[t], np.float32)
+            if (cam.width, cam.height) != (depth.shape[1], depth.shape[0]):
+                # nearest keeps depth edges sharp (no mixed foreground/background depths)
+                depth = np.asarray(Image.fromarray(depth).resize((cam.width, cam.height), Image.NEAREST))
+            yield depth, cam
+
+    fused = fuse_depth(frames(), config)
+    pts, ids = capture.all_points()
+    labelled = PointSet(np.asarray(pts, np.float64), None, np.asarray(ids, np.int64))
+    if len(labelled) > config.max_samples:
+        keep = np.random.default_rng(config.seed).choice(len(labelled), config.max_samples, replace=False)
+        labelled = labelled.select(np.sort(keep))
+    return label_points(fused, labelled, config.label_radius)
+
+
+def _mean_rows(rows: list[dict[str, Any]], key: str) -> float | None:
+    vals = [r[key] for r in rows if r.get(key) is not None]
+    return float(np.mean(vals)) if vals else None
+
+
+def geometry_metrics(
+    placed: Mapping[int, tuple[str, trimesh.Trimesh]],
+    shell: Mapping[str, trimesh.Trimesh],
+    capture: Any,
+    gt: Any | None,
+    config: GeometryConfig | None = None,
+) -> dict[str, Any]:
+    """Geometry metrics of a placed scene: against ground truth (``gt``, when given) and against the
+    sensor (when the capture has depth), each ``sampled`` and ``refused``, scene-level and per object.
+
+    placed: instance id -> (label, world-frame mesh) of every placed object.
+    shell: name -> world-frame mesh of the exported room shell (floor slab, walls); they occlude in the
+        re-fusion and are part of the 'all surfaces' comparison against the sensor.
+    capture: an opened ``Capture`` (cameras, depth, instance points). gt: its ``GroundTruth`` or None.
+    Returns plain JSON types; a comparison that cannot be made is listed in ``not_computed``.
+    """
+    config = config or GeometryConfig()
+    out: dict[str, Any] = {"protocol": config.model_dump(mode="json"), "not_computed": {}}
+    if not placed:
+        out["not_computed"]["all"] = "the run placed no object"
+        return out
+    pred_meshes = {int(i): m for i, (_, m) in placed.items()}
+    shell_keyed = {-(k + 1): m for k, (_, m) in enumerate(sorted(shell.items()))}
+    labels = {int(i): lab for i, (lab, _) in placed.items()}
+    cameras = capture_cameras(capture, None, config.fuse_stride)
+    pred_sampled = sample_meshes(pred_meshes, config)
+    pred_refused = refuse({**pred_meshes, **shell_keyed}, cameras, config)
+    out["cameras_fused"] = len(cameras)
+
+    if gt is None:
+        out["not_computed"]["ground_truth"] = "the capture has no ground truth (gt/ group)"
+    else:
+        obj_of = gt.object_of_instance()
+        gt_meshes = {int(o.object_id): gt.world_mesh(o.object_id) for o in gt.objects}
+        if not gt_meshes:
+            out["not_computed"]["ground_truth"] = "the ground truth has no objects"
+        else:
+            from rescene_core.export import ExportConfig, shell_meshes
+
+            gt_shell = {-(k + 1): m for k, (_, m) in enumerate(sorted(shell_meshes(gt.shell, ExportConfig()).items()))}
+            gt_sampled = sample_meshes(gt_meshes, config)
+            gt_refused = refuse({**gt_meshes, **gt_shell}, cameras, config)
+            pred_obj = pred_refused.select(pred_refused.labels > 0)
+            gt_obj = gt_refused.select(gt_refused.labels > 0)
+            pairs = {i: [obj_of[i]] for i in pred_meshes if i in obj_of}
+            refused_rows = per_label(pred_obj, gt_obj, pairs, config)
+            rows = []
+            for i in sorted(pred_meshes):
+                row: dict[str, Any] = {"instance": i, "label": labels[i], "object_id": obj_of.get(i)}
+                if i in obj_of:
+                    ref = sample_meshes({obj_of[i]: gt_meshes[obj_of[i]]}, config)
+                    own = pred_sampled.select(pred_sampled.labels == i)
+                    row["sampled"] = compare(own, ref, config)
+                    row["refused"] = refused_rows[i]
+                rows.append(row)
+            out["ground_truth"] = {
+                "sampled": compare(pred_sampled, gt_sampled, config),
+                "refused": compare(pred_obj, gt_obj, config),
+                "per_object": rows,
+                "per_object_mean": {
+                    mode: {
+                        k: _mean_rows([r[mode] for r in rows if mode in r], k)
+                        for k in ("chamfer", "fscore@5cm", "normal_consistency")
+                    }
+                    for mode in ("sampled", "refused")
+                },
+            }
+
+    if capture.depth is None:
+        out["not_computed"]["sensor"] = "the capture has no depth (frames/depth)"
+    else:
+        sensor = sensor_reference(capture, config)
+        objects = {int(i.id) for i in capture.object_instances}
+        ref_obj = sensor.select(np.isin(sensor.labels, list(objects)))
+        pred_obj = pred_refused.select(pred_refused.labels > 0)
+        rows_by = per_label(pred_obj, ref_obj, {i: [i] for i in pred_meshes}, config)
+        rows = [{"instance": i, "label": labels[i], "refused": rows_by[i]} for i in sorted(pred_meshes)]
+        out["sensor"] = {
+            "reference": (
+                f"fusion of the capture's own depth (back-projected, averaged per {config.fuse_voxel} m voxel; "
+                f"every {config.fuse_stride} frame(s) at scale {config.fuse_scale})"
+            ),
+            "objects_sampled": compare(pred_sampled, ref_obj, config),
+            "objects_refused": compare(pred_obj, ref_obj, config),
+            "all_refused": compare(pred_refused, sensor, config),
+            "per_object": rows,
+        }
+    return out
+
+
+__all__ = [
+    "GeometryConfig",
+    "PointSet",
+    "capture_cameras",
+    "compare",
+    "geometry_metrics",
+    "downsample",
+    "backproject",
+    "fuse_depth",
+    "label_points",
+    "per_label",
+    "point_metrics",
+    "refuse",
+    "rendered_depths",
+    "sample_meshes",
+    "sample_surface",
+    "scaled_camera",
+    "sensor_reference",
+]
