@@ -8,9 +8,10 @@ from scipy.spatial.transform import Rotation
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
 from rescene_core.records import Asset, InstanceId, InstancePoints, Missing, Pose
-from rescene_core.registration import add_s, register, register_detailed
-from rescene_core.registration import pipeline as register_module
-from rescene_core.registration.bounded_icp import umeyama
+from rescene_core.registration import add_s, gates, pipeline, register, register_detailed
+from rescene_core.registration import candidates as candidates_module
+from rescene_core.registration import refinement as refinement_module
+from rescene_core.registration.bounded_icp import bounded_sim3_icp, umeyama
 from tests.registration.fixtures import chair_mesh, random_world_from_object, scan, table_mesh, unit_box_asset
 
 CONFIG = RegistrationConfig()
@@ -83,7 +84,7 @@ def _icp_case(scale: float, yaw_deg: float):
 
 def test_icp_respects_rotation_and_scale_bounds():
     source, points, init, extent = _icp_case(scale=1.4, yaw_deg=40)
-    result = register_module.bounded_sim3_icp(source, points, init, extent, CONFIG)
+    result = bounded_sim3_icp(source, points, init, extent, CONFIG)
     assert result.history
     assert max(h["step_rotation_deg"] for h in result.history) <= CONFIG.max_step_rotation_deg + 1e-6
     s0, rot0, _ = sim3.parts_from_sim3(init)
@@ -99,7 +100,7 @@ def test_rotation_clamps_engage(bound):
     source, points, init, extent = _icp_case(scale=1.0, yaw_deg=12)
     limit = {"max_step_rotation_deg": 0.5} if bound == "step" else {"max_total_rotation_deg": 4.0}
     config = CONFIG.model_copy(update=limit)
-    result = register_module.bounded_sim3_icp(source, points, init, extent, config)
+    result = bounded_sim3_icp(source, points, init, extent, config)
     _, rot0, _ = sim3.parts_from_sim3(init)
     _, rot, _ = sim3.parts_from_sim3(result.world_from_asset)
     total = np.rad2deg(sim3.rotation_angle(rot @ rot0.T))
@@ -114,12 +115,12 @@ def test_rotation_clamps_engage(bound):
 def test_wild_scale_candidate_is_rejected_by_the_init_gate(monkeypatch):
     asset, target, gt = _case(chair_mesh(), seed=3, partial=False)
     wild = sim3.compose(gt, sim3.sim3_from_parts(5.0, np.eye(3), np.zeros(3)))
-    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [wild])
+    monkeypatch.setattr(candidates_module, "fpfh_ransac_candidates", lambda *a, **k: [wild])
     pose, diag = register_detailed(asset, target, CONFIG)
-    cand = diag["init"]["candidates"][0]
-    assert not cand["accepted"]
-    assert any("scale" in r for r in cand["reasons"])
-    assert diag["init"]["candidates"][-1]["source"] == "normalisation"
+    cand = diag.init.candidates[0]
+    assert not cand.gate.accepted
+    assert any("scale" in r for r in cand.gate.reasons)
+    assert diag.init.candidates[-1].source == "normalisation"
     if isinstance(pose, Pose):
         s = sim3.parts_from_sim3(pose.world_from_asset)[0] / sim3.parts_from_sim3(gt)[0]
         assert 0.5 < s < 2.0
@@ -131,12 +132,32 @@ def test_solver_failure_falls_back_to_conservative_icp(monkeypatch):
     def broken(*args, **kwargs):
         raise FloatingPointError("solver blew up")
 
-    monkeypatch.setattr(register_module, "bounded_sim3_icp", broken)
+    monkeypatch.setattr(refinement_module, "bounded_sim3_icp", broken)
     pose, diag = register_detailed(asset, target, CONFIG)
-    assert "solver blew up" in diag["refinement"]["error"]
-    assert diag["refinement"].get("method") == "fallback_nn_icp"
+    assert "solver blew up" in diag.refinement.error
+    assert diag.refinement.refined is not None and diag.refinement.refined.method == "fallback_nn_icp"
     assert isinstance(pose, Pose)
     assert pose.method in {"fallback_nn_icp", "init_only"}
+
+
+def test_a_defect_in_the_solver_raises_instead_of_falling_back(monkeypatch):
+    """Only numerical solver failures fall back; any other exception is a bug and reaches the caller."""
+    asset, target, _ = _case(chair_mesh(), seed=3, partial=False)
+
+    def buggy(*args, **kwargs):
+        raise TypeError("a defect")
+
+    monkeypatch.setattr(refinement_module, "bounded_sim3_icp", buggy)
+    with pytest.raises(TypeError, match="a defect"):
+        register_detailed(asset, target, CONFIG)
+
+
+def test_typed_diagnostics_are_what_pose_json_holds():
+    asset, target, _ = _case(chair_mesh(), seed=3, partial=False)
+    pose, diag = register_detailed(asset, target, CONFIG)
+    assert isinstance(pose, Pose)
+    assert json.loads(json.dumps(pose.diagnostics)) == json.loads(json.dumps(diag.to_json()))
+    assert diag.final is not None and pose.diagnostics["final"]["init"] == diag.final.init
 
 
 def _asset(vertices, faces):
@@ -234,12 +255,12 @@ def _picture_case():
 def test_upright_snap_undoes_an_in_plane_turn():
     _, asset, _, gt = _picture_case()
     turned = _in_plane_turned(gt, asset, 70.0)
-    assert register_module.rotation_gate_angle(turned, None) > 60.0
+    assert gates.rotation_gate_angle(turned, None) > 60.0
     centre = 0.5 * (asset.vertices.min(axis=0) + asset.vertices.max(axis=0))
-    snapped = register_module.upright_snap(turned, centre)
+    snapped = gates.upright_snap(turned, centre)
     np.testing.assert_allclose(snapped, gt, atol=1e-9)
     upside_down = _in_plane_turned(gt, asset, 180.0)
-    assert register_module.upright_snap(upside_down, centre) is None
+    assert gates.upright_snap(upside_down, centre) is None
 
 
 @pytest.mark.parametrize("snap", [True, False])
@@ -248,30 +269,30 @@ def test_flat_picture_keeps_its_in_plane_rotation(monkeypatch, snap):
     With upright_snap the turned candidate is set upright and wins; without it the picture is lost."""
     mesh, asset, target, gt = _picture_case()
     turned = _in_plane_turned(gt, asset, 65.0)
-    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [turned])
+    monkeypatch.setattr(candidates_module, "fpfh_ransac_candidates", lambda *a, **k: [turned])
     config = RegistrationConfig(upright_snap=snap)
     pose, diag = register_detailed(asset, target, config)
-    first = diag["init"]["candidates"][0]
-    assert not first["accepted"] and all("rotation gate" in r for r in first["reasons"])
+    first = diag.init.candidates[0]
+    assert not first.gate.accepted and all("rotation gate" in r for r in first.gate.reasons)
     if snap:
         assert isinstance(pose, Pose), pose
-        assert diag["final"]["init"] == "fpfh_ransac[0]+upright"
+        assert diag.final.init == "fpfh_ransac[0]+upright"
         adds, scale_err = _errors(pose, asset, gt, mesh)
         assert adds < 0.03 and scale_err < 0.03
-        assert register_module.rotation_gate_angle(pose.world_from_asset, None) < 5.0
+        assert gates.rotation_gate_angle(pose.world_from_asset, None) < 5.0
     else:
-        assert all(c["source"] != "fpfh_ransac[0]+upright" for c in diag["init"]["candidates"])
+        assert all(c.source != "fpfh_ransac[0]+upright" for c in diag.init.candidates)
         assert isinstance(pose, Missing) or _errors(pose, asset, gt, mesh)[0] > 0.05
 
 
 def test_ransac_restarts_stop_early_once_a_candidate_fits():
     asset, target, gt = _case(chair_mesh(), seed=3, partial=False)
     _, eager = register_detailed(asset, target, CONFIG)
-    first = eager["init"]["candidates"][0]
-    assert eager["ransac_restarts_run"] == 1 and first["accepted"]
-    assert first["fit"]["inlier_ratio"] >= CONFIG.ransac_early_exit_inlier_ratio
+    first = eager.init.candidates[0]
+    assert eager.search.restarts_run == 1 and first.gate.accepted
+    assert first.fit.inlier_ratio >= CONFIG.ransac_early_exit_inlier_ratio
     _, full = register_detailed(asset, target, CONFIG.model_copy(update={"ransac_early_exit_inlier_ratio": 1.1}))
-    assert full["ransac_restarts_run"] == CONFIG.ransac_restarts
+    assert full.search.restarts_run == CONFIG.ransac_restarts
 
 
 def test_only_the_best_probe_gets_the_full_refinement(monkeypatch):
@@ -279,15 +300,14 @@ def test_only_the_best_probe_gets_the_full_refinement(monkeypatch):
     asset, target, gt = _case(mesh, seed=3, partial=False)
     near = sim3.compose(sim3.sim3_from_parts(1.03, Rotation.from_rotvec([0, 0, 0.1]).as_matrix(), np.zeros(3)), gt)
     off = sim3.compose(sim3.sim3_from_parts(1.0, Rotation.from_rotvec([0, 0, 0.2]).as_matrix(), np.zeros(3)), gt)
-    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [off, near])
+    monkeypatch.setattr(candidates_module, "fpfh_ransac_candidates", lambda *a, **k: [off, near])
     pose, diag = register_detailed(asset, target, CONFIG.model_copy(update={"ransac_early_exit_inlier_ratio": 1.1}))
-    cands = [c for c in diag["init"]["candidates"] if c["accepted"]]
-    assert len(cands) == 2 and all("probe_fit" in c for c in cands)
-    assert [("refined_fit" in c) for c in cands] == [False, True]
-    assert diag["final"]["init"] == "fpfh_ransac[1]"
-    assert (
-        diag["refinement"]["iterations"] > CONFIG.probe_iterations or diag["refinement"]["stop_reason"] == "converged"
-    )
+    cands = [c for c in diag.init.candidates if c.gate.accepted]
+    assert len(cands) == 2 and all(c.probe_fit is not None for c in cands)
+    assert [(c.refined_fit is not None) for c in cands] == [False, True]
+    assert diag.final.init == "fpfh_ransac[1]"
+    solver = diag.refinement.solver
+    assert solver.iterations > CONFIG.probe_iterations or solver.stop_reason == "converged"
     adds, scale_err = _errors(pose, asset, gt, mesh)
     assert adds < 0.02 and scale_err < 0.02
 
@@ -301,8 +321,8 @@ def test_shared_feature_matches_give_the_feature_matching_ransac_candidates():
 
     reg = o3d.pipelines.registration
     asset, target, _ = _case(table_mesh(), seed=1, partial=True, scale=0.7)
-    source = register_module._sample_source(asset, CONFIG)
-    tgt = register_module.prepare_target(np.asarray(target.points, np.float64), CONFIG)
+    source = pipeline.sample_source(asset, CONFIG)
+    tgt = pipeline.prepare_target(np.asarray(target.points, np.float64), CONFIG)
     sn, tn = Normalisation.of(source), Normalisation.of(tgt)
     config = CONFIG.model_copy(update={"ransac_restarts": 2, "ransac_iterations": 500})
     shared = fpfh_ransac_candidates(source, tgt, sn, tn, config)
@@ -337,11 +357,11 @@ def test_shared_feature_matches_give_the_feature_matching_ransac_candidates():
 def test_icp_resumed_from_a_probe_equals_one_uninterrupted_run():
     source, points, init, extent = _icp_case(scale=1.2, yaw_deg=30)
     config = CONFIG.model_copy(update={"icp_tolerance": 0.0})  # run the whole budget
-    direct = register_module.bounded_sim3_icp(source, points, init, extent, config)
+    direct = bounded_sim3_icp(source, points, init, extent, config)
     probe_config = config.model_copy(update={"max_iterations": config.probe_iterations})
-    probe = register_module.bounded_sim3_icp(source, points, init, extent, probe_config)
+    probe = bounded_sim3_icp(source, points, init, extent, probe_config)
     assert probe.iterations == config.probe_iterations and probe.stop_reason == "max_iterations"
-    resumed = register_module.bounded_sim3_icp(source, points, init, extent, config, resume=probe)
+    resumed = bounded_sim3_icp(source, points, init, extent, config, resume=probe)
     assert direct.iterations == resumed.iterations == config.max_iterations
     np.testing.assert_array_equal(direct.world_from_asset, resumed.world_from_asset)
     assert direct.history == resumed.history
@@ -351,6 +371,6 @@ def test_icp_resumed_from_a_probe_equals_one_uninterrupted_run():
         resumed.scale_clips,
     )
     # a probe that already stopped (converged) is the final result
-    done = register_module.bounded_sim3_icp(source, points, init, extent, CONFIG)
+    done = bounded_sim3_icp(source, points, init, extent, CONFIG)
     if done.stop_reason != "max_iterations":
-        assert register_module.bounded_sim3_icp(source, points, init, extent, CONFIG, resume=done) is done
+        assert bounded_sim3_icp(source, points, init, extent, CONFIG, resume=done) is done

@@ -5,7 +5,7 @@ import numpy as np
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
 from rescene_core.records import InstanceId, InstancePoints, Pose
-from rescene_core.registration import pipeline as register_module
+from rescene_core.registration import candidates as candidates_module
 from rescene_core.registration import register_detailed
 from rescene_core.registration.init import Normalisation
 from tests.registration.fixtures import chair_mesh, random_world_from_object, scan, unit_box_asset
@@ -54,15 +54,15 @@ def test_polluted_target_keeps_the_scale_without_a_ransac_candidate(monkeypatch)
     """With no RANSAC candidate the normalisation pose is the initialisation and the refinement may change
     its scale by 10 % at most: the bounding box's inflation survives, the robust box's does not arise."""
     asset, target, gt = _polluted_case()
-    monkeypatch.setattr(register_module, "fpfh_ransac_candidates", lambda *a, **k: [])
+    monkeypatch.setattr(candidates_module, "fpfh_ransac_candidates", lambda *a, **k: [])
     s_true = sim3.parts_from_sim3(gt)[0]
     init, final = {}, {}
     for q in (0.0, RegistrationConfig().extent_percentile):
         pose, diag = register_detailed(asset, target, RegistrationConfig(extent_percentile=q))
         assert isinstance(pose, Pose), pose
-        reference = diag["init"]["candidates"][-1]
-        assert reference["source"] == "normalisation"
-        init[q] = reference["pose"]["scale"] / s_true - 1.0
+        reference = diag.init.candidates[-1]
+        assert reference.source == "normalisation"
+        init[q] = reference.pose.scale / s_true - 1.0
         final[q] = sim3.parts_from_sim3(pose.world_from_asset)[0] / s_true - 1.0
     robust = RegistrationConfig().extent_percentile
     assert init[0.0] > 0.15 and final[0.0] > 0.15  # the bounding box's pose stays oversized
@@ -81,5 +81,5 @@ def test_diagnostics_record_both_boxes():
     asset, target, _ = _polluted_case(seed=5)
     pose, diag = register_detailed(asset, target, RegistrationConfig())
     assert isinstance(pose, Pose)
-    assert diag["target_robust_box"]["extent"] < diag["target_normalisation"]["extent"]
-    assert abs(diag["inlier_threshold_m"] - 0.1 * diag["target_robust_box"]["extent"]) < 1e-9
+    assert diag.clouds.target_robust_box.extent < diag.clouds.target_normalisation.extent
+    assert abs(diag.clouds.inlier_threshold_m - 0.1 * diag.clouds.target_robust_box.extent) < 1e-9
