@@ -1,0 +1,165 @@
+"""The shared state of question generation: the scene's lookup tables, the seeded random stream, the
+candidates found so far and the filter counts, with the helpers every category's templates use
+(confidence checks, choices with distractors, recording drops).
+
+The order of random draws is part of the output: templates draw from one stream in a fixed order, so a
+seed gives the same questions.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rescene_core.records import Edge, Root
+from rescene_core.vqa.config import VqaConfig
+from rescene_core.vqa.items import EXTRA_LABELS, FLOOR_ANSWER, Category, Filter, wall_direction
+from rescene_core.vqa.references import object_references
+from rescene_core.vqa.render import Viewpoint
+from rescene_core.vqa.scene import VqaScene, edge_parent_id
+
+
+@dataclass
+class Candidate:
+    """A question found by a template, before selection (the fields of ``VqaItem`` without the id)."""
+
+    category: Category
+    template: str
+    question: str
+    answer: str
+    choices: tuple[str, ...]
+    object_ids: tuple[int, ...]
+    viewpoint: dict[str, Any] | None
+    provenance: dict[str, Any]
+
+
+class QuestionContext:
+    """Lookup tables of one scene (objects by id, labels, edges by child, children by parent, walls and
+    their compass names, object references) and the state of one generation run."""
+
+    def __init__(self, scene: VqaScene, config: VqaConfig, viewpoints: list[Viewpoint], rng: np.random.Generator):
+        self.scene = scene
+        self.config = config
+        self.viewpoints = viewpoints
+        self.rng = rng
+        self.candidates: dict[Category, list[Candidate]] = {c: [] for c in Category}
+        self.filtered: dict[Category, Counter] = {c: Counter() for c in Category}
+        self.obj = {o.id: o for o in scene.objects}
+        counts = scene.label_counts()
+        self.counts = counts
+        self.labels = sorted(counts)
+        self.edges = scene.edges()
+        self.children: dict[int, list[Edge]] = defaultdict(list)
+        for e in self.edges.values():
+            pid = edge_parent_id(e)
+            if pid is not None:
+                self.children[pid].append(e)
+        self.walls = {w.id: w for w in scene.shell.walls}
+        self.wall_names = {w.id: wall_direction(w) for w in scene.shell.walls}
+        self.wall_name_counts = Counter(self.wall_names.values())
+        self.refs = object_references(self)
+        self.unique = set(self.refs)
+
+    def by_support(self, oid: int) -> bool:
+        """Whether the object's reference names its support ('lamp on the desk')."""
+        return self.refs[oid] != self.obj[oid].label and " on the " in self.refs[oid]
+
+    def ref(self, oid: int) -> str:
+        """The referring phrase of an object (without 'the')."""
+        return self.refs[oid]
+
+    def label(self, oid: int) -> str:
+        return self.obj[oid].label
+
+    def confident(self, e: Edge) -> bool:
+        return float(e.confidence) >= self.config.min_confidence
+
+    def pick_confident(self, cat: Category, edges: list[Edge]) -> Edge | None:
+        """A random edge of ``edges`` at or above the confidence threshold; None (and a recorded
+        low-confidence drop) when there is none."""
+        sure = [e for e in edges if self.confident(e)]
+        if not sure:
+            self.drop(cat, Filter.LOW_CONFIDENCE)
+            return None
+        return sure[int(self.rng.integers(len(sure)))]
+
+    def pick_child(
+        self, cat: Category, edges: list[Edge], exclude: set[str]
+    ) -> tuple[Edge, str, tuple[str, ...] | None] | None:
+        """For "which of these objects ..." questions: a confident edge of ``edges`` (``pick_confident``),
+        its child's label as the answer, and choices from the scene's labels without ``exclude`` (the
+        labels that would also be right). None when no edge is confident."""
+        pick = self.pick_confident(cat, edges)
+        if pick is None:
+            return None
+        ans = self.label(int(pick.child))
+        return pick, ans, self.choices(ans, self.labels, exclude)
+
+    def parent_label(self, e: Edge) -> str:
+        pid = edge_parent_id(e)
+        return FLOOR_ANSWER if pid is None and e.parent == Root.FLOOR else ("wall" if pid is None else self.label(pid))
+
+    def drop(self, cat: Category, reason: Filter) -> None:
+        self.filtered[cat][reason.value] += 1
+
+    def choices(
+        self, answer: str, pool: list[str] | set[str], exclude: set[str] = frozenset()
+    ) -> tuple[str, ...] | None:
+        """The answer plus up to num_choices-1 distractors from ``pool`` (then EXTRA_LABELS), shuffled."""
+        bad = set(exclude) | {answer}
+        first = sorted({p for p in pool if p not in bad})
+        extra = sorted({p for p in EXTRA_LABELS if p not in bad and p not in first and p not in self.labels})
+        need = self.config.num_choices - 1
+        picked = [first[i] for i in self.rng.permutation(len(first))[:need]]
+        if len(picked) < need and extra:
+            picked += [extra[i] for i in self.rng.permutation(len(extra))[: need - len(picked)]]
+        if not picked:
+            return None
+        opts = [answer, *picked]
+        return tuple(opts[i] for i in self.rng.permutation(len(opts)))
+
+    def shuffle(self, opts: list[str]) -> tuple[str, ...]:
+        return tuple(opts[i] for i in self.rng.permutation(len(opts)))
+
+    def add(self, cat, template, question, answer, choices, object_ids, provenance, viewpoint=None) -> None:
+        if choices is None:
+            self.drop(cat, Filter.NO_DISTRACTORS)
+            return
+        if answer not in choices:
+            raise ValueError(f"template {template!r}: the answer {answer!r} is not among its choices {choices}")
+        named = {str(i): self.refs[i] for i in object_ids if self.refs.get(i, self.obj[i].label) != self.obj[i].label}
+        if named:
+            provenance = {**provenance, "references": named}
+        self.candidates[cat].append(
+            Candidate(
+                cat,
+                template,
+                question,
+                answer,
+                tuple(choices),
+                tuple(int(i) for i in object_ids),
+                None if viewpoint is None else viewpoint.to_json(),
+                provenance,
+            )
+        )
+
+    def far_enough(self, d1: float, d2: float) -> bool:
+        return abs(d1 - d2) >= self.config.distance_margin * max(d1, d2, 1e-9)
+
+    @staticmethod
+    def bearing(vp: Viewpoint, point: np.ndarray) -> float:
+        """Horizontal angle (degrees) of a world point in the camera frame; positive = right of centre."""
+        p = vp.camera.cam_from_world[:3, :3] @ point + vp.camera.cam_from_world[:3, 3]
+        return float(np.degrees(np.arctan2(p[0], p[2])))
+
+    def mounted_wall(self, e: Edge) -> int | None:
+        """The wall a 'mounts-on wall' edge refers to: its wall_id, else the wall plane nearest the object."""
+        if e.wall_id is not None and e.wall_id in self.walls:
+            return e.wall_id
+        if not self.walls:
+            return None
+        c = self.obj[int(e.child)].center
+        return min(self.walls, key=lambda w: abs(float(self.walls[w].plane.signed_distance(c[None])[0])))
