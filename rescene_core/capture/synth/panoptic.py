@@ -13,7 +13,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from rescene_core.capture.synth.objects import CONFUSABLE
 from rescene_core.capture.synth.presets import SynthPreset
+
+OBJECT_RENDER_BASE = 1 << 14
+"""Render ids of objects are OBJECT_RENDER_BASE + object id; structure renders with its instance id."""
 
 
 @dataclass
@@ -108,6 +112,107 @@ def drift(
             out[best[2]] = a
             return out, {"instance": a, "onto": best[0], "pixels": best[1]}
     return ids, None
+
+
+@dataclass
+class PanopticPlan:
+    """The per-object decisions of the panoptic model, taken once so they hold in every frame.
+
+    primary_of: object id -> its instance id. split_of: object id -> (second instance id, object-frame
+    axis, threshold) for objects split in two along that axis. missed: objects the model never reports.
+    labels: object id -> the wrong label it reports. events: the decisions as capture-attrs records.
+    next_id: the first unused instance id.
+    """
+
+    primary_of: dict[int, int]
+    split_of: dict[int, tuple[int, int, float]]
+    missed: set[int]
+    labels: dict[int, str]
+    events: list[dict]
+    next_id: int
+
+    def render_lut(self, structure_ids: list[int], objects: list) -> NDArray[np.int32]:
+        """Render id -> reported instance id (0 for missed objects), before splits and per-frame errors."""
+        lut = np.zeros(OBJECT_RENDER_BASE + len(objects) + 1, np.int32)
+        for iid in structure_ids:
+            lut[iid] = iid
+        for obj in objects:
+            if obj.object_id not in self.missed:
+                lut[OBJECT_RENDER_BASE + obj.object_id] = self.primary_of[obj.object_id]
+        return lut
+
+    def object_instance_ids(self) -> set[int]:
+        """Instance ids the model reports for objects (primaries of the objects not missed, and split halves)."""
+        primaries = {self.primary_of[o] for o in self.primary_of if o not in self.missed}
+        return primaries | {v[0] for v in self.split_of.values()}
+
+    def instances_of(self, object_id: int) -> list[int]:
+        """Instance ids reported for one object: none when missed, its primary and its split half if split."""
+        if object_id in self.missed:
+            return []
+        second = [self.split_of[object_id][0]] if object_id in self.split_of else []
+        return [self.primary_of[object_id], *second]
+
+    def apply_splits(
+        self,
+        render_ids: NDArray[np.int32],
+        ids: NDArray[np.int32],
+        points: NDArray,
+        local_from_world: dict[int, NDArray[np.float64]],
+    ) -> None:
+        """Relabel, in place, the pixels of split objects beyond their threshold with the second instance id.
+
+        render_ids, ids: int32 [H, W]; points: [H, W, 3] world hit points; local_from_world: object id ->
+        object_from_world 4x4 of each split object.
+        """
+        for oid, (second, axis, thr) in self.split_of.items():
+            sel = render_ids == OBJECT_RENDER_BASE + oid
+            if sel.any():
+                p = points[sel].astype(np.float64)
+                local = p @ local_from_world[oid][:3, :3].T + local_from_world[oid][:3, 3]
+                ids[sel] = np.where(local[:, axis] > thr, second, ids[sel])
+
+
+def plan_panoptic_errors(
+    objects: list,
+    n_structure: int,
+    preset: SynthPreset,
+    rng_err: np.random.Generator,
+    rng_ids: np.random.Generator,
+) -> PanopticPlan:
+    """Instance ids (a random order after the structure's), misses of small objects nothing stands on,
+    splits of large objects, wrong labels of confusable ones, as the preset's probabilities say.
+
+    objects: the layout's placed objects (``object_id``, ``label``, ``model``, ``parent``), object ids 1..n.
+    """
+    events: list[dict] = []
+    n_obj = len(objects)
+    perm = rng_ids.permutation(n_obj)
+    primary_of = {objects[int(k)].object_id: n_structure + 1 + j for j, k in enumerate(perm)}
+    next_id = n_structure + n_obj + 1
+    split_of: dict[int, tuple[int, int, float]] = {}
+    missed: set[int] = set()
+    labels: dict[int, str] = {}
+    for obj in objects:
+        size = obj.model.size
+        label = obj.label
+        if max(size) < preset.small_size and not any(o.parent == obj.object_id for o in objects):
+            if rng_err.random() < preset.miss_small_prob:
+                missed.add(obj.object_id)
+                events.append({"kind": "missed", "object": obj.object_id, "label": label})
+                continue
+        if max(size) >= preset.split_min_size and rng_err.random() < preset.split_prob:
+            axis = int(np.argmax(size[:2]))
+            lo, hi = obj.model.bounds[0][axis], obj.model.bounds[1][axis]
+            thr = float(lo + (hi - lo) * rng_err.uniform(0.35, 0.65))
+            split_of[obj.object_id] = (next_id, axis, thr)
+            events.append({"kind": "split", "object": obj.object_id, "instances": [primary_of[obj.object_id], next_id]})
+            next_id += 1
+        if rng_err.random() < preset.wrong_label_prob and label in CONFUSABLE:
+            wrong = CONFUSABLE[label][int(rng_err.integers(len(CONFUSABLE[label])))]
+            labels[obj.object_id] = wrong
+            events.append({"kind": "wrong_label", "object": obj.object_id, "label": label, "given": wrong})
+    return PanopticPlan(primary_of, split_of, missed, labels, events, next_id)
 
 
 @dataclass

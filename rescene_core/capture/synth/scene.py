@@ -18,14 +18,19 @@ from rescene_core.capture.format import CaptureArrays, points_to_csr, write_capt
 from rescene_core.capture.ground_truth import GroundTruth, GtObject, GtRelation, GtStructure, write_ground_truth
 from rescene_core.capture.synth.cameras import CameraPlan, plan_cameras
 from rescene_core.capture.synth.layout import Layout, Room, furnish, random_room
-from rescene_core.capture.synth.objects import CONFUSABLE, WOODS
-from rescene_core.capture.synth.panoptic import Accumulator, boundary_noise, depth_with_noise, drift
+from rescene_core.capture.synth.objects import WOODS
+from rescene_core.capture.synth.panoptic import (
+    OBJECT_RENDER_BASE,
+    Accumulator,
+    PanopticPlan,
+    boundary_noise,
+    depth_with_noise,
+    drift,
+    plan_panoptic_errors,
+)
 from rescene_core.capture.synth.presets import SynthPreset, get_preset
 from rescene_core.records import Camera, Instance, InstanceId
 from rescene_core.render import Light, Renderer, RenderMesh, Shading, Texture
-
-OBJECT_RENDER_BASE = 1 << 14
-"""Render ids of objects are OBJECT_RENDER_BASE + object id; structure renders with its instance id."""
 
 
 @dataclass
@@ -159,6 +164,8 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     """Generate a synthetic capture with ground truth. Same preset, overrides and seed -> same arrays.
 
     overrides: preset fields to replace (e.g. ``split_prob=1.0``; see ``SynthPreset``).
+    Steps: layout and cameras, the render scene, the panoptic model's per-object errors
+    (``panoptic.plan_panoptic_errors``), the frames (render, per-frame errors, fusion), the capture.
     """
     cfg = get_preset(preset, **overrides)
     timings: dict[str, float] = {}
@@ -166,7 +173,7 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     root_rng = np.random.default_rng(seed)
     # default_rng(int) holds a SeedSequence; the stubs type it as the ISeedSequence interface, which has no spawn
     rngs = [np.random.default_rng(s) for s in root_rng.bit_generator.seed_seq.spawn(6)]  # type: ignore[attr-defined]
-    rng_layout, rng_cam, rng_look, rng_err, rng_frames, rng_ids = rngs
+    rng_layout, rng_cam, rng_look, rng_err, _rng_frames, rng_ids = rngs
     room = random_room(rng_layout, cfg)
     lay = furnish(room, cfg, rng_layout)
     plan = plan_cameras(lay, cfg, rng_cam)
@@ -181,58 +188,69 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     )
     timings["scene_build"] = time.perf_counter() - t
 
-    # per-object decisions of the panoptic model: ids, splits, misses, wrong labels
-    events: list[dict[str, Any]] = []
-    n_struct = len(struct_instances)
-    n_obj = len(lay.objects)
-    perm = rng_ids.permutation(n_obj)
-    primary_of = {lay.objects[int(k)].object_id: n_struct + 1 + j for j, k in enumerate(perm)}
-    next_id = n_struct + n_obj + 1
-    split_of: dict[int, tuple[int, int, float]] = {}  # object id -> (second instance id, axis, threshold)
-    missed: set[int] = set()
-    labels: dict[int, str] = {}
-    for obj in lay.objects:
-        size = obj.model.size
-        label = obj.label
-        if max(size) < cfg.small_size and not any(o.parent == obj.object_id for o in lay.objects):
-            if rng_err.random() < cfg.miss_small_prob:
-                missed.add(obj.object_id)
-                events.append({"kind": "missed", "object": obj.object_id, "label": label})
-                continue
-        if max(size) >= cfg.split_min_size and rng_err.random() < cfg.split_prob:
-            axis = int(np.argmax(size[:2]))
-            lo, hi = obj.model.bounds[0][axis], obj.model.bounds[1][axis]
-            thr = float(lo + (hi - lo) * rng_err.uniform(0.35, 0.65))
-            split_of[obj.object_id] = (next_id, axis, thr)
-            events.append({"kind": "split", "object": obj.object_id, "instances": [primary_of[obj.object_id], next_id]})
-            next_id += 1
-        if rng_err.random() < cfg.wrong_label_prob and label in CONFUSABLE:
-            wrong = CONFUSABLE[label][int(rng_err.integers(len(CONFUSABLE[label])))]
-            labels[obj.object_id] = wrong
-            events.append({"kind": "wrong_label", "object": obj.object_id, "label": label, "given": wrong})
-    lut = np.zeros(OBJECT_RENDER_BASE + n_obj + 1, np.int32)
-    for s in structure:
-        lut[s.instance_id] = s.instance_id
-    for obj in lay.objects:
-        if obj.object_id not in missed:
-            lut[OBJECT_RENDER_BASE + obj.object_id] = primary_of[obj.object_id]
-    object_instance_ids = {primary_of[o] for o in primary_of if o not in missed} | {v[0] for v in split_of.values()}
-    local_from_world = {oid: np.linalg.inv(lay.objects[oid - 1].world_from_object) for oid in split_of}
+    errors = plan_panoptic_errors(lay.objects, len(struct_instances), cfg, rng_err, rng_ids)
+    lut = errors.render_lut([s.instance_id for s in structure], lay.objects)
+    frames = _render_frames(renderer, plan, lay, errors, lut, cfg, seed, timings)
 
-    T, H, W = cfg.frames, cfg.height, cfg.width
-    rgb = np.zeros((T, H, W, 3), np.uint8)
-    masks = np.zeros((T, H, W), np.int32)
-    depth = np.zeros((T, H, W), np.float32)
-    obj_frames = np.zeros((T, H, W), np.int32)
-    max_id = next_id
-    voxel_of = np.full(max_id + 1, cfg.structure_voxel)
+    t = time.perf_counter()
+    arrays, gt = _assemble(cfg, seed, room, lay, plan, structure, struct_instances, errors, frames)
+    timings["assemble"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    return SynthScene(cfg, int(seed), arrays, gt, frames.objects, plan, lay, errors.events, timings)
+
+
+@dataclass
+class _Frames:
+    """The rendered frames with the panoptic errors applied, and the fused instance points.
+
+    rgb uint8 [T, H, W, 3], masks int32 [T, H, W] (reported instance ids), depth float32 [T, H, W],
+    objects int32 [T, H, W] (error-free object id, 0 = structure or nothing), pixel_counts int64 [max_id + 1]
+    (pixels per reported id over all frames), fusion: the per-instance voxel accumulator.
+    """
+
+    rgb: NDArray[np.uint8]
+    masks: NDArray[np.int32]
+    depth: NDArray[np.float32]
+    objects: NDArray[np.int32]
+    pixel_counts: NDArray[np.int64]
+    fusion: Accumulator
+
+
+def _voxel_sizes(lay: Layout, errors: PanopticPlan, cfg: SynthPreset) -> NDArray[np.float64]:
+    """Fusion voxel size (m) per instance id [next_id + 1]: the structure's, or a fraction of the object's size."""
+    voxel_of = np.full(errors.next_id + 1, cfg.structure_voxel)
     for obj in lay.objects:
         vox = float(np.clip(np.linalg.norm(obj.model.size) * cfg.object_voxel_ratio, *cfg.object_voxel_range))
-        voxel_of[primary_of[obj.object_id]] = vox
-        if obj.object_id in split_of:
-            voxel_of[split_of[obj.object_id][0]] = vox
-    acc = Accumulator(voxel_of, cfg.fusion_stride)
-    pixel_counts = np.zeros(max_id + 1, np.int64)
+        voxel_of[errors.primary_of[obj.object_id]] = vox
+        if obj.object_id in errors.split_of:
+            voxel_of[errors.split_of[obj.object_id][0]] = vox
+    return voxel_of
+
+
+def _render_frames(
+    renderer: Renderer,
+    plan: CameraPlan,
+    lay: Layout,
+    errors: PanopticPlan,
+    lut: NDArray[np.int32],
+    cfg: SynthPreset,
+    seed: int,
+    timings: dict[str, float],
+) -> _Frames:
+    """Render every frame, apply the splits and the per-frame errors (boundary noise, drift, depth noise,
+    RGB noise), fuse the points; drift events are appended to ``errors.events`` in frame order."""
+    object_instance_ids = errors.object_instance_ids()
+    local_from_world = {oid: np.linalg.inv(lay.objects[oid - 1].world_from_object) for oid in errors.split_of}
+    T, H, W = cfg.frames, cfg.height, cfg.width
+    max_id = errors.next_id
+    out = _Frames(
+        np.zeros((T, H, W, 3), np.uint8),
+        np.zeros((T, H, W), np.int32),
+        np.zeros((T, H, W), np.float32),
+        np.zeros((T, H, W), np.int32),
+        np.zeros(max_id + 1, np.int64),
+        Accumulator(_voxel_sizes(lay, errors, cfg), cfg.fusion_stride),
+    )
     min_px = max(20, H * W // 2000)
     noise_bank = None
     if cfg.rgb_noise > 0:
@@ -249,12 +267,7 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
         t = time.perf_counter()
         rid = frame.ids
         ids = lut[rid]
-        for oid, (second, axis, thr) in split_of.items():
-            sel = rid == OBJECT_RENDER_BASE + oid
-            if sel.any():
-                p = frame.hits.points[sel].astype(np.float64)
-                local = p @ local_from_world[oid][:3, :3].T + local_from_world[oid][:3, 3]
-                ids[sel] = np.where(local[:, axis] > thr, second, ids[sel])
+        errors.apply_splits(rid, ids, frame.hits.points, local_from_world)
         ids, _ = boundary_noise(ids, cfg, rng_k)
         ids, event = drift(ids, object_instance_ids, cfg, rng_k, min_px)
         d = depth_with_noise(frame.depth, cfg, rng_k)
@@ -265,7 +278,7 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
             img = np.clip(img.astype(np.int16) + noise, 0, 255).astype(np.uint8)
         t_err = time.perf_counter() - t
         t = time.perf_counter()
-        fused = acc.frame_points(d, ids, img, plan.K, plan.world_from_cam[k])
+        fused = out.fusion.frame_points(d, ids, img, plan.K, plan.world_from_cam[k])
         return {
             "rgb": img,
             "ids": ids,
@@ -280,28 +293,43 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     t_loop = time.perf_counter()
     renderer.caster.cast_camera(Camera(plan.K, plan.world_from_cam[0], W, H))  # builds the BVH once, here
     with ThreadPoolExecutor(max_workers=max(1, cfg.threads)) as pool:
-        for k, out in enumerate(pool.map(one_frame, range(T))):
-            rgb[k], masks[k], depth[k], obj_frames[k] = out["rgb"], out["ids"], out["depth"], out["objects"]
-            if out["event"] is not None:
-                events.append({"kind": "drift", "frame": k, **out["event"]})
-            pixel_counts += np.bincount(out["ids"].ravel(), minlength=max_id + 1)[: max_id + 1]
-            acc.push(*out["fused"])
-            for key, v in zip(("render", "errors", "fusion"), out["times"]):
+        for k, frame_out in enumerate(pool.map(one_frame, range(T))):
+            out.rgb[k], out.masks[k] = frame_out["rgb"], frame_out["ids"]
+            out.depth[k], out.objects[k] = frame_out["depth"], frame_out["objects"]
+            if frame_out["event"] is not None:
+                errors.events.append({"kind": "drift", "frame": k, **frame_out["event"]})
+            out.pixel_counts += np.bincount(frame_out["ids"].ravel(), minlength=max_id + 1)[: max_id + 1]
+            out.fusion.push(*frame_out["fused"])
+            for key, v in zip(("render", "errors", "fusion"), frame_out["times"]):
                 timings[key] += v
     timings["frames_wall"] = time.perf_counter() - t_loop
+    return out
 
-    t = time.perf_counter()
-    clouds = acc.clouds()
+
+def _assemble(
+    cfg: SynthPreset,
+    seed: int,
+    room: Room,
+    lay: Layout,
+    plan: CameraPlan,
+    structure: list[GtStructure],
+    struct_instances: list[Instance],
+    errors: PanopticPlan,
+    frames: _Frames,
+) -> tuple[CaptureArrays, GroundTruth]:
+    """The capture arrays (instances seen in some frame, their clouds capped at ``max_points_per_instance``)
+    and the ground truth (objects with the instance ids reported for them, largest cloud first)."""
+    clouds = frames.fusion.clouds()
+    pixel_counts = frames.pixel_counts
     seen = {i for i in np.flatnonzero(pixel_counts) if i > 0}
     instances = [inst for inst in struct_instances if int(inst.id) in seen]
     gt_objects = []
     for obj in lay.objects:
         oid = obj.object_id
-        ids_of = [] if oid in missed else [primary_of[oid]] + ([split_of[oid][0]] if oid in split_of else [])
-        ids_of = [i for i in ids_of if i in seen]
+        ids_of = [i for i in errors.instances_of(oid) if i in seen]
         ids_of.sort(key=lambda i: (-len(clouds.get(i, ((),))[0]), -int(pixel_counts[i]), i))
         for i in ids_of:
-            instances.append(Instance(InstanceId(i), labels.get(oid, obj.label), False))
+            instances.append(Instance(InstanceId(i), errors.labels.get(oid, obj.label), False))
         verts, faces = obj.model.union_mesh()
         gt_objects.append(GtObject(oid, obj.label, verts, faces, obj.world_from_object.copy(), tuple(ids_of)))
     instances.sort(key=lambda inst: int(inst.id))
@@ -317,18 +345,19 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     point_ids, offsets, points, colors = points_to_csr(clouds)
     relations = tuple(GtRelation(o.object_id, o.relation, o.parent, o.wall_id) for o in lay.objects)
     gt = GroundTruth(tuple(gt_objects), relations, room.shell(), tuple(s for s in structure if s.instance_id in seen))
+    T = cfg.frames
     arrays = CaptureArrays(
         scene_id=f"synth-{cfg.name}-{seed}",
-        rgb=rgb,
+        rgb=frames.rgb,
         K=np.tile(plan.K, (T, 1, 1)),
         world_from_cam=plan.world_from_cam.astype(np.float64),
-        instance_masks=masks,
+        instance_masks=frames.masks,
         instances=tuple(instances),
         point_ids=point_ids,
         point_offsets=offsets,
         points=points,
         colors=colors,
-        depth=depth,
+        depth=frames.depth,
         source="rescene-synth",
         extra_attrs={
             "synth": {
@@ -337,13 +366,11 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
                 "settings": cfg.model_dump(mode="json"),
                 "frame_kinds": list(plan.kinds),
                 "closeup_object": [int(v) for v in plan.target_object],
-                "events": events,
+                "events": errors.events,
             }
         },
     )
-    timings["assemble"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
-    return SynthScene(cfg, int(seed), arrays, gt, obj_frames, plan, lay, events, timings)
+    return arrays, gt
 
 
 def write_synth(
