@@ -28,8 +28,10 @@ def machine_info() -> dict[str, object]:
     return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
 
 
-def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str) -> int:
-    """Run one suite, print its table, write ``out_dir/<name>.json``; returns an exit code."""
+def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str, **options: object) -> int:
+    """Run one suite, print its table, write ``out_dir/<name>.json``; returns an exit code.
+
+    options: passed on to the suite's ``run`` (the pipeline suite takes the orchestration ``harness``)."""
     try:
         module = importlib.import_module(SUITES[name])
     except ModuleNotFoundError as err:
@@ -37,7 +39,7 @@ def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str) -> int:
         return 1
     out_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    result = module.run(seeds=seeds, preset=preset, work_dir=out_dir / f"{name}_work")
+    result = module.run(seeds=seeds, preset=preset, work_dir=out_dir / f"{name}_work", **options)
     result = {
         "suite": name,
         "preset": preset,
