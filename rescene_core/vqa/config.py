@@ -7,13 +7,15 @@ confidence threshold, which is the scene graph's low-confidence threshold.
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
 from rescene_core.config import SceneGraphConfig
 
 
 def _low_confidence() -> float:
-    return SceneGraphConfig().low_confidence
+    return SceneGraphConfig().fusion.low_confidence
 
 
 class VqaConfig(BaseModel):
@@ -29,7 +31,7 @@ class VqaConfig(BaseModel):
     """Choices of a multiple-choice question (fewer when the scene has too few distinct answers)."""
 
     min_confidence: float = Field(default_factory=_low_confidence, ge=0.0, le=1.0)
-    """Relations with a confidence below this are not asked about (default: SceneGraphConfig.low_confidence)."""
+    """Relations with a confidence below this are not asked about (default: SceneGraphConfig.fusion.low_confidence)."""
     distance_margin: float = Field(0.15, ge=0.0)
     """Distance comparisons need |d1 - d2| >= this fraction of the larger distance."""
     height_margin: float = Field(0.15, ge=0.0)
@@ -37,8 +39,39 @@ class VqaConfig(BaseModel):
     bearing_margin_deg: float = Field(8.0, ge=0.0)
     """Left/right questions need the two objects' bearings from the camera to differ by this (degrees)."""
 
+    distance_band_edges: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
+    """Metric distance questions answer with a band between consecutive edges (m; 'less than' the first,
+    'more than' the last)."""
+    distance_band_margin: float = Field(0.1, ge=0.0)
+    """A metric distance within this of a band edge is not asked about (m)."""
+    sector_margin_deg: float = Field(10.0, ge=0.0)
+    """Direction questions (ahead/left/right/behind, which wall the camera faces) need the direction to be
+    at least this far from a sector boundary (degrees)."""
+    visibility_margin: float = Field(2.0, ge=1.0)
+    """Counting in a view needs every object of the label to cover either >= this times
+    ``min_visible_pixels`` or < ``min_visible_pixels`` / this (objects near the threshold are ambiguous)."""
+
+    sampling: Literal["target", "walk"] = "target"
+    """How views are taken: 'target' samples one viewpoint per target object; 'walk' is the paper's agent,
+    a capture after every discrete action of an egocentric walk."""
     views: int = Field(6, ge=0)
-    """Viewpoints to sample and render; 0 generates only viewpoint-free questions."""
+    """Viewpoints to sample and render with sampling 'target'; 0 generates only viewpoint-free questions."""
+    walks: int = Field(1, ge=0)
+    """Walks of the agent per scene (sampling 'walk')."""
+    walk_steps: int = Field(16, ge=1)
+    """Discrete actions per walk, a capture after each."""
+    walk_eye_height: float = Field(1.5, gt=0.0)
+    """The agent's fixed eye height above the floor (m)."""
+    walk_step_m: float = Field(0.5, gt=0.0)
+    """Length of a forward move (m)."""
+    walk_turn_deg: float = Field(30.0, gt=0.0)
+    """Yaw change of a turn (degrees)."""
+    walk_look_deg: float = Field(15.0, gt=0.0)
+    """Pitch change of a look up/down (degrees)."""
+    walk_look_max_deg: float = Field(30.0, ge=0.0, lt=89.0)
+    """Largest pitch up or down (degrees)."""
+    walk_action_probs: tuple[float, float, float, float, float] = (0.4, 0.2, 0.2, 0.1, 0.1)
+    """Probabilities of forward, turn left, turn right, look up, look down."""
     eye_height_min: float = 1.2
     """Lowest camera height above the floor (m)."""
     eye_height_max: float = 1.7

@@ -133,6 +133,7 @@ class QuestionContext:
         named = {str(i): self.refs[i] for i in object_ids if self.refs.get(i, self.obj[i].label) != self.obj[i].label}
         if named:
             provenance = {**provenance, "references": named}
+        provenance = {**provenance, "names": {str(i): self.refs.get(i, self.obj[i].label) for i in object_ids}}
         self.candidates[cat].append(
             Candidate(
                 cat,
@@ -145,6 +146,21 @@ class QuestionContext:
                 provenance,
             )
         )
+
+    def relative_yaw(self, vp: Viewpoint, point: np.ndarray) -> float:
+        """Horizontal angle (degrees, -180..180) of a world point from the camera's heading; positive = left."""
+        return relative_yaw(vp.camera.world_from_cam, point)
+
+    def band(self, d: float) -> tuple[str, bool]:
+        """The distance band label of ``d`` (m) and whether ``d`` is within ``distance_band_margin`` of an edge."""
+        return distance_band(d, self.config.distance_band_edges, self.config.distance_band_margin)
+
+    def band_choices(self, answer: str) -> tuple[str, ...]:
+        """The answer band and its nearest neighbouring bands (``num_choices`` in all), shuffled."""
+        labels = band_labels(self.config.distance_band_edges)
+        k = labels.index(answer)
+        order = sorted(range(len(labels)), key=lambda j: (abs(j - k), j))[: self.config.num_choices]
+        return self.shuffle([labels[j] for j in order])
 
     def far_enough(self, d1: float, d2: float) -> bool:
         return abs(d1 - d2) >= self.config.distance_margin * max(d1, d2, 1e-9)
@@ -163,3 +179,39 @@ class QuestionContext:
             return None
         c = self.obj[int(e.child)].center
         return min(self.walls, key=lambda w: abs(float(self.walls[w].plane.signed_distance(c[None])[0])))
+
+
+def relative_yaw(world_from_cam: np.ndarray, point: np.ndarray) -> float:
+    """Horizontal angle (degrees, -180..180) of a world point from a camera's heading; positive = left
+    (counter-clockwise seen from above)."""
+    fwd = np.asarray(world_from_cam)[:3, 2]
+    eye = np.asarray(world_from_cam)[:3, 3]
+    d = np.asarray(point, np.float64) - eye
+    ang = np.degrees(np.arctan2(d[1], d[0]) - np.arctan2(fwd[1], fwd[0]))
+    return float((ang + 180.0) % 360.0 - 180.0)
+
+
+def band_labels(edges: tuple[float, ...]) -> list[str]:
+    """Labels of the distance bands between ``edges`` (m): 'less than 0.5 m', '0.5-1.0 m', ..., 'more than 6.0 m'."""
+    out = [f"less than {edges[0]:.1f} m"]
+    out += [f"{a:.1f}-{b:.1f} m" for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    return out + [f"more than {edges[-1]:.1f} m"]
+
+
+def distance_band(d: float, edges: tuple[float, ...], margin: float) -> tuple[str, bool]:
+    """The band label of distance ``d`` (m) and whether it lies within ``margin`` of a band edge."""
+    k = int(np.searchsorted(np.asarray(edges), d, side="right"))
+    near = bool(np.min(np.abs(np.asarray(edges) - d)) < margin)
+    return band_labels(edges)[k], near
+
+
+def yaw_sector(angle: float, margin: float) -> tuple[str, bool]:
+    """'ahead', 'left', 'behind' or 'right' for a relative yaw (degrees, positive = left), and whether it is
+    within ``margin`` of a sector boundary (+-45, +-135 degrees)."""
+    a = (angle + 180.0) % 360.0 - 180.0
+    near = min(abs(abs(a) - 45.0), abs(abs(a) - 135.0)) < margin
+    if abs(a) < 45.0:
+        return "ahead", near
+    if abs(a) > 135.0:
+        return "behind", near
+    return ("left" if a > 0 else "right"), near

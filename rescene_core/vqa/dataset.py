@@ -42,7 +42,12 @@ def build_vqa(scene: VqaScene, config: VqaConfig | None = None) -> VqaDataset:
     rng = np.random.default_rng(config.seed)
     viewpoints: list[Viewpoint] = []
     images: dict[str, np.ndarray] = {}
-    if config.views > 0:
+    if config.sampling == "walk" and config.walks > 0:
+        from rescene_core.vqa.walk import walk_viewpoints
+
+        viewpoints, frames = walk_viewpoints(scene, config, make_renderer(scene, config), rng)
+        images = {vp.id: frames[k].rgb for k, vp in enumerate(viewpoints)}
+    elif config.sampling == "target" and config.views > 0:
         renderer = make_renderer(scene, config)
         viewpoints, frames = sample_viewpoints(scene, config, renderer, rng)
         images = {vp.id: frames[k].rgb for k, vp in enumerate(viewpoints)}
@@ -62,11 +67,13 @@ def _summary(scene: VqaScene, config: VqaConfig, viewpoints: list[Viewpoint], ge
         "render_backend": RENDER_BACKEND,
         "questions": len(gen.items),
         "counts": gen.counts(),
+        "task_counts": gen.task_counts(),
+        "skipped": scene.skipped_json(),
         "candidates": gen.candidates,
         "filtered": gen.filtered,
         "filtered_total": dict(sorted(filtered_total.items())),
         "views": [vp.to_json() for vp in viewpoints],
-        "views_requested": config.views,
+        "views_requested": config.views if config.sampling == "target" else config.walks * config.walk_steps,
         "config": config.model_dump(),
     }
 

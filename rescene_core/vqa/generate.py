@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rescene_core.records import Relation
 from rescene_core.vqa.categories import CATEGORY_GENERATORS
 from rescene_core.vqa.config import VqaConfig
 from rescene_core.vqa.context import QuestionContext
@@ -51,6 +52,12 @@ def generate_questions(
     config = config or VqaConfig()
     rng = np.random.default_rng(config.seed)
     ctx = QuestionContext(scene, config, list(viewpoints), rng)
+    if scene.missing_graph is not None:
+        for cat in (Category.SUPPORT_RELATION, Category.ATTACHMENT_RELATION, Category.MULTI_HOP):
+            ctx.drop(cat, Filter.MISSING_GRAPH)
+    for e in scene.dangling_edges():
+        rests = e.relation == Relation.RESTS_ON
+        ctx.drop(Category.SUPPORT_RELATION if rests else Category.ATTACHMENT_RELATION, Filter.MISSING_INSTANCE)
     for _category, generate in CATEGORY_GENERATORS:
         generate(ctx)
     items = select(ctx)

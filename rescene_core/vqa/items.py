@@ -32,6 +32,59 @@ class Filter(enum.StrEnum):
     AMBIGUOUS_WALL = "ambiguous_wall"
     ANSWER_IN_QUESTION = "answer_in_question"
     NO_DISTRACTORS = "no_distractors"
+    NEAR_BAND_EDGE = "near_band_edge"
+    NEAR_SECTOR_BOUNDARY = "near_sector_boundary"
+    NEAR_VISIBILITY_THRESHOLD = "near_visibility_threshold"
+    MISSING_GRAPH = "missing_graph"
+    MISSING_INSTANCE = "missing_instance"
+
+
+class TaskType(enum.StrEnum):
+    """The four task types of the paper's Table 4, plus recognition (the appendix's category that Table 4
+    does not report)."""
+
+    OBJECT_COUNT = "object_count"
+    DISTANCE_JUDGEMENT = "distance_judgement"
+    RELATION_REASONING = "relation_reasoning"
+    VIEWPOINT_ESTIMATION = "viewpoint_estimation"
+    RECOGNITION = "recognition"
+
+
+TABLE4_TASKS = (
+    TaskType.OBJECT_COUNT,
+    TaskType.DISTANCE_JUDGEMENT,
+    TaskType.RELATION_REASONING,
+    TaskType.VIEWPOINT_ESTIMATION,
+)
+"""The columns of the paper's Table 4 (its 'Avg' is over these)."""
+
+TEMPLATE_TASKS: dict[str, TaskType] = {
+    "count": TaskType.OBJECT_COUNT,
+    "count_in_view": TaskType.OBJECT_COUNT,
+    "label_at_position": TaskType.RECOGNITION,
+    "label_at_view_centre": TaskType.RECOGNITION,
+    "closer_to_camera": TaskType.DISTANCE_JUDGEMENT,
+    "closer_to_object": TaskType.DISTANCE_JUDGEMENT,
+    "distance_between": TaskType.DISTANCE_JUDGEMENT,
+    "distance_to_camera": TaskType.DISTANCE_JUDGEMENT,
+    "left_right_in_view": TaskType.RELATION_REASONING,
+    "higher": TaskType.RELATION_REASONING,
+    "rests_on": TaskType.RELATION_REASONING,
+    "what_rests_on": TaskType.RELATION_REASONING,
+    "which_wall": TaskType.RELATION_REASONING,
+    "what_on_wall": TaskType.RELATION_REASONING,
+    "mounted_on_a_wall": TaskType.RELATION_REASONING,
+    "mounted_on_object": TaskType.RELATION_REASONING,
+    "same_support": TaskType.RELATION_REASONING,
+    "support_of_support": TaskType.RELATION_REASONING,
+    "rests_on_nearest": TaskType.RELATION_REASONING,
+    "rests_on_neighbour_in_view": TaskType.RELATION_REASONING,
+    "facing_wall": TaskType.VIEWPOINT_ESTIMATION,
+    "object_direction": TaskType.VIEWPOINT_ESTIMATION,
+    "nearest_to_camera": TaskType.VIEWPOINT_ESTIMATION,
+    "behind_camera": TaskType.VIEWPOINT_ESTIMATION,
+}
+"""The Table 4 task type of every template."""
 
 
 FLOOR_ANSWER = "floor"
@@ -72,10 +125,16 @@ class VqaItem:
     viewpoint: dict[str, Any] | None = None
     provenance: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def task(self) -> TaskType:
+        """The Table 4 task type of the item's template."""
+        return TEMPLATE_TASKS[self.template]
+
     def to_json(self) -> dict[str, Any]:
         return {
             "id": self.id,
             "category": self.category.value,
+            "task": self.task.value,
             "template": self.template,
             "question": self.question,
             "answer": self.answer,
@@ -117,6 +176,12 @@ class GeneratedQuestions:
         out = {c.value: 0 for c in Category}
         for item in self.items:
             out[item.category.value] += 1
+        return out
+
+    def task_counts(self) -> dict[str, int]:
+        out = {t.value: 0 for t in TaskType}
+        for item in self.items:
+            out[item.task.value] += 1
         return out
 
 

@@ -33,6 +33,9 @@ class Viewpoint:
     camera: pinhole camera, world_from_cam in OpenCV axes (x right, y down, z forward), metres.
     visible: object id -> pixels covered in the id buffer, objects with >= min_visible_pixels only.
     center_id: object id under the image centre pixel (0 = no object: shell or nothing).
+    faint: object id -> pixels for objects seen below ``min_visible_pixels`` (not visible; questions whose
+    answer would change if they were are filtered). agent: the walk's record of the capture (walk, step,
+    action, yaw_deg, pitch_deg), None for targeted viewpoints.
     """
 
     id: str
@@ -40,13 +43,15 @@ class Viewpoint:
     camera: Camera
     visible: dict[int, int] = field(default_factory=dict)
     center_id: int = 0
+    faint: dict[int, int] = field(default_factory=dict)
+    agent: dict[str, Any] | None = None
 
     @property
     def eye(self) -> NDArray[np.float64]:
         return np.asarray(self.camera.world_from_cam[:3, 3], np.float64)
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        out = {
             "id": self.id,
             "image": f"views/{self.id}.png",
             "target": self.target,
@@ -56,7 +61,32 @@ class Viewpoint:
             "width": self.camera.width,
             "height": self.camera.height,
             "visible": {str(k): int(v) for k, v in sorted(self.visible.items())},
+            "center_id": self.center_id,
         }
+        if self.faint:
+            out["faint"] = {str(k): int(v) for k, v in sorted(self.faint.items())}
+        if self.agent is not None:
+            out["agent"] = self.agent
+        return out
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Viewpoint:
+        """The viewpoint of ``to_json`` (the camera, visibility and walk record)."""
+        camera = Camera(
+            np.asarray(d["K"], np.float64),
+            np.asarray(d["world_from_cam"], np.float64),
+            int(d["width"]),
+            int(d["height"]),
+        )
+        return cls(
+            str(d["id"]),
+            int(d.get("target", 0)),
+            camera,
+            {int(k): int(v) for k, v in d.get("visible", {}).items()},
+            int(d.get("center_id", 0)),
+            {int(k): int(v) for k, v in d.get("faint", {}).items()},
+            d.get("agent"),
+        )
 
 
 def look_at(eye: NDArray, target: NDArray) -> NDArray[np.float64]:

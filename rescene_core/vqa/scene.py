@@ -91,6 +91,10 @@ class VqaScene:
     shell: RoomShell
     scene_id: str = ""
     source: str = "records"
+    missing_graph: str | None = None
+    """Why the run had no usable scene graph (relation questions are then skipped and counted), else None."""
+    missing_instances: tuple[tuple[int, str], ...] = ()
+    """Instances placed in the layout that could not be read (id, reason); they are not asked about."""
 
     def __post_init__(self) -> None:
         if not self.objects:
@@ -126,6 +130,23 @@ class VqaScene:
                 continue
             out[int(e.child)] = e
         return out
+
+    def dangling_edges(self) -> list[Edge]:
+        """Edges whose child or (instance) parent is not among the objects (a missing instance)."""
+        have = {o.id for o in self.objects}
+        return [
+            e
+            for e in self.graph.edges
+            if int(e.child) not in have or (not isinstance(e.parent, Root) and int(e.parent) not in have)
+        ]
+
+    def skipped_json(self) -> dict[str, Any]:
+        """What could not be asked about and why: the missing graph, unreadable instances, dangling edges."""
+        return {
+            "graph": self.missing_graph,
+            "instances": [{"instance": i, "reason": r} for i, r in self.missing_instances],
+            "edges_to_missing_instances": len(self.dangling_edges()),
+        }
 
     def floor_height(self) -> float:
         """Height of the floor plane at the origin (m)."""
@@ -185,10 +206,16 @@ def read_run(run_dir: str | Path) -> VqaScene:
     if not run.is_dir():
         raise VqaInputError(f"{run}: not a directory (expected a run directory written by `rescene run`)")
     shell = RoomShell.from_json(_read(run / "shell.json", "room shell"))
-    graph = SceneGraph.from_json(_read(run / "scenegraph" / "graph.json", "fused scene graph"))
+    graph_path = run / "scenegraph" / "graph.json"
+    missing_graph = None
+    if graph_path.is_file():
+        graph = SceneGraph.from_json(_read(graph_path, "fused scene graph"))
+    else:
+        graph, missing_graph = SceneGraph(()), f"{graph_path}: missing (the scene-graph stage did not finish)"
     layout = Layout.from_json(_read(run / "layout.json", "attachment layout"))
     labels = _labels(run)
     objects = []
+    missing: list[tuple[int, str]] = []
     for inst, world_from_asset in sorted(layout.world_from_asset.items()):
         inst_dir = run / "instances" / str(int(inst))
         glb_name = "asset.glb"
@@ -196,9 +223,11 @@ def read_run(run_dir: str | Path) -> VqaScene:
             glb_name = _read(inst_dir / "asset.json", "asset metadata").get("glb", glb_name)
         glb = inst_dir / glb_name
         if not glb.is_file():
-            raise VqaInputError(f"{glb}: missing (asset mesh of instance {int(inst)}, placed in layout.json)")
+            missing.append((int(inst), f"{glb}: missing asset mesh"))
+            continue
         if int(inst) not in labels:
-            raise VqaInputError(f"{run}: no label for instance {int(inst)} (scene/scene.json or manifest.json)")
+            missing.append((int(inst), "no label in scene/scene.json or manifest.json"))
+            continue
         asset = load_asset(glb, int(inst))
         verts = sim3.apply(np.asarray(world_from_asset, np.float64), asset.vertices)
         objects.append(VqaObject.from_mesh(int(inst), labels[int(inst)], verts, asset.faces))
@@ -207,7 +236,15 @@ def read_run(run_dir: str | Path) -> VqaScene:
         scene_id = str(_read(run / "scene" / "scene.json", "exported scene").get("scene_id", ""))
     if not objects:
         raise VqaInputError(f"{run / 'layout.json'}: no placed objects, nothing to ask about")
-    return VqaScene(tuple(objects), graph, shell, scene_id=scene_id, source=str(run))
+    return VqaScene(
+        tuple(objects),
+        graph,
+        shell,
+        scene_id=scene_id,
+        source=str(run),
+        missing_graph=missing_graph,
+        missing_instances=tuple(missing),
+    )
 
 
 def scene_from_ground_truth(gt) -> VqaScene:
@@ -220,6 +257,40 @@ def scene_from_ground_truth(gt) -> VqaScene:
             continue
         objects.append(VqaObject.from_mesh(primary[obj.object_id], obj.label, obj.world_vertices(), obj.faces))
     return VqaScene(tuple(objects), gt.graph_by_instance(), gt.shell, source="ground-truth")
+
+
+def scene_from_synth_layout(preset: str = "standard", seed: int = 0) -> VqaScene:
+    """The ground-truth ``VqaScene`` of the synthetic capture ``(preset, seed)`` without rendering its frames.
+
+    It draws the room and furniture exactly as ``rescene_core.capture.synth.make_scene`` does (the same
+    seeded stream), so objects, labels, poses, relations and shell are the capture's ground truth; ids are
+    the generator's object ids (not capture instance ids) and no object is missed. Edges have confidence 1.
+    Use ``scene_from_ground_truth`` to get capture instance ids from a written capture.
+    """
+    from rescene_core.capture.synth.layout import furnish, random_room
+    from rescene_core.capture.synth.presets import get_preset
+    from rescene_core.records import InstanceId
+
+    cfg = get_preset(preset)
+    root_rng = np.random.default_rng(seed)
+    rng_layout = np.random.default_rng(root_rng.bit_generator.seed_seq.spawn(6)[0])
+    room = random_room(rng_layout, cfg)
+    lay = furnish(room, cfg, rng_layout)
+    objects = []
+    edges = []
+    for obj in lay.objects:
+        verts, faces = obj.model.union_mesh()
+        world = verts @ obj.world_from_object[:3, :3].T + obj.world_from_object[:3, 3]
+        objects.append(VqaObject.from_mesh(obj.object_id, obj.label, world, faces))
+        parent = obj.parent if isinstance(obj.parent, Root) else InstanceId(int(obj.parent))
+        edges.append(Edge(InstanceId(obj.object_id), obj.relation, parent, 1.0, wall_id=obj.wall_id))
+    return VqaScene(
+        tuple(objects),
+        SceneGraph(tuple(edges)),
+        room.shell(),
+        scene_id=f"synth-{cfg.name}-{seed}",
+        source="synth-layout",
+    )
 
 
 def edge_parent_id(edge: Edge) -> int | None:
@@ -240,4 +311,5 @@ __all__ = [
     "read_run",
     "rests_on",
     "scene_from_ground_truth",
+    "scene_from_synth_layout",
 ]

@@ -106,22 +106,29 @@ def test_out_dir_and_determinism(run_dir, tmp_path):
     assert a == b and not (run / "vqa").exists()
 
 
-def test_missing_graph_is_a_clear_error(run_dir, capsys):
+def test_missing_graph_skips_and_counts_relation_questions(run_dir, tmp_path):
     run, _ = run_dir
     (run / "scenegraph" / "graph.json").unlink()
-    with pytest.raises(VqaInputError, match=r"graph\.json: missing"):
-        read_run(run)
-    assert main(["vqa", str(run)]) == 2
-    assert "graph.json" in capsys.readouterr().err
+    scene = read_run(run)
+    assert scene.missing_graph is not None and "graph.json" in scene.missing_graph
+    assert main(["vqa", str(run), "--views", "1", "--out", str(tmp_path / "v")]) == 0
+    summary = json.loads((tmp_path / "v" / "summary.json").read_text())
+    assert summary["skipped"]["graph"] is not None
+    for cat in ("support_relation", "attachment_relation", "multi_hop"):
+        assert summary["counts"][cat] == 0 and summary["filtered"][cat]["missing_graph"] == 1
+    assert summary["counts"]["object_recognition"] > 0
 
 
-def test_missing_asset_and_empty_layout(run_dir):
+def test_missing_asset_skipped_and_counted_then_empty_layout(run_dir):
     run, _ = run_dir
     layout = json.loads((run / "layout.json").read_text())
     first = sorted(layout["objects"], key=int)[0]
     shutil.rmtree(run / "instances" / first)
-    with pytest.raises(VqaInputError, match="asset"):
-        read_run(run)
+    scene = read_run(run)
+    assert [i for i, _ in scene.missing_instances] == [int(first)]
+    assert int(first) not in scene.ids
+    generated = build_vqa(scene, VqaConfig(views=0))
+    assert all(int(first) not in item.object_ids for item in generated.items)
     write_json_atomic(run / "layout.json", {"objects": {}, "operations": [], "missing": []})
     with pytest.raises(VqaInputError, match="no placed objects"):
         read_run(run)

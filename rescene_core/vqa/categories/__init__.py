@@ -15,6 +15,7 @@ from rescene_core.vqa.categories import (
     object_recognition,
     relative_position,
     support_relation,
+    viewpoint_estimation,
 )
 from rescene_core.vqa.context import QuestionContext
 from rescene_core.vqa.items import Category
@@ -25,6 +26,7 @@ CATEGORY_GENERATORS: tuple[tuple[Category, Callable[[QuestionContext], None]], .
     (Category.SUPPORT_RELATION, support_relation.generate),
     (Category.ATTACHMENT_RELATION, attachment_relation.generate),
     (Category.MULTI_HOP, multi_hop.generate),
+    (Category.RELATIVE_POSITION, viewpoint_estimation.generate),
 )
 
 __all__ = ["CATEGORY_GENERATORS"]

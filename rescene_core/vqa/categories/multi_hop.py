@@ -132,6 +132,7 @@ def view_neighbour(ctx: QuestionContext) -> None:
                     {
                         "view": vp.id,
                         "neighbour": n,
+                        "side": side,
                         "edges": [edge_json(pick)],
                         "bearing_deg": {str(i): round(bearings[i], 2) for i in (b, n)},
                     },

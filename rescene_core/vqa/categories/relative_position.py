@@ -97,3 +97,50 @@ def generate(ctx: QuestionContext) -> None:
                 (a, b, c),
                 {"center_distance_m": {f"{a}-{b}": round(db, 3), f"{a}-{c}": round(dc, 3)}},
             )
+    metric_distance(ctx)
+
+
+def metric_distance(ctx: QuestionContext) -> None:
+    """Metric distance judgement with tolerance bands as choices: between two objects' centres, and from
+    the camera to a visible object's centre. Distances within ``distance_band_margin`` of a band edge are
+    not asked about."""
+    cat = Category.RELATIVE_POSITION
+    ids = ctx.scene.ids
+    for a, b in itertools.combinations(ids, 2):
+        if a not in ctx.unique or b not in ctx.unique:
+            ctx.drop(cat, Filter.AMBIGUOUS_REFERENCE)
+            continue
+        d = float(np.linalg.norm(ctx.obj[a].center - ctx.obj[b].center))
+        ans, near = ctx.band(d)
+        if near:
+            ctx.drop(cat, Filter.NEAR_BAND_EDGE)
+            continue
+        ctx.add(
+            cat,
+            "distance_between",
+            f"About how far apart are the centres of the {ctx.ref(a)} and the {ctx.ref(b)}?",
+            ans,
+            ctx.band_choices(ans),
+            (a, b),
+            {"center_distance_m": round(d, 3)},
+        )
+    for vp in ctx.viewpoints:
+        for a in sorted(i for i in vp.visible if i in ctx.obj):
+            if a not in ctx.unique:
+                ctx.drop(cat, Filter.AMBIGUOUS_REFERENCE)
+                continue
+            d = float(np.linalg.norm(ctx.obj[a].center - vp.eye))
+            ans, near = ctx.band(d)
+            if near:
+                ctx.drop(cat, Filter.NEAR_BAND_EDGE)
+                continue
+            ctx.add(
+                cat,
+                "distance_to_camera",
+                f"In this view, about how far from the camera is the centre of the {ctx.ref(a)}?",
+                ans,
+                ctx.band_choices(ans),
+                (a,),
+                {"view": vp.id, "distance_m": round(d, 3)},
+                vp,
+            )
