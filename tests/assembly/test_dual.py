@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from rescene_core.assembly import attach
 from rescene_core.assembly.transforms import translation
 from rescene_core.config import AttachmentConfig
@@ -25,5 +27,16 @@ def test_low_confidence_wall_edge_keeps_floor_only():
 
 def test_single_branch_when_dual_is_off():
     objects, graph, shell = scene()
-    layout = attach(objects, graph, shell, AttachmentConfig(dual_attachment=False))
-    assert {op["branch"] for op in layout.operations} <= {"wall-aware", "all"}
+    on = attach(objects, graph, shell, AttachmentConfig(dual_attachment=True))
+    off = attach(objects, graph, shell, AttachmentConfig(dual_attachment=False))
+    # dual attachment solves a floor-only branch beside the wall-aware one; without it only one branch runs
+    assert {op["branch"] for op in on.operations} >= {"wall-aware", "floor-only"}
+    assert off.operations and {op["branch"] for op in off.operations} <= {"wall-aware", "all"}
+    assert not [op for op in off.operations if op["stage"] == "dual attachment"]
+    wall_aware_on = [op for op in on.operations if op["branch"] == "wall-aware"]
+    assert [(op["stage"], op["rule"], op["instance"]) for op in off.operations] == [
+        (op["stage"], op["rule"], op["instance"]) for op in wall_aware_on
+    ]
+    # every edge here is confident, so the dual solver keeps the wall-aware result: the same poses
+    for iid, world_from_asset in on.world_from_asset.items():
+        np.testing.assert_allclose(off.world_from_asset[iid], world_from_asset, atol=1e-12)

@@ -2,18 +2,13 @@
 
 from __future__ import annotations
 
-import shutil
-
 import numpy as np
-import pytest
 import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.gltf import join_glb, split_glb, trs_from_matrix, validate_gltf
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
-
-pytestmark = pytest.mark.skipif(shutil.which("node") is None, reason="needs Node.js (make setup)")
 
 SHELL = RoomShell(
     floor=Plane((0.0, 0.0, 1.0), 0.0),

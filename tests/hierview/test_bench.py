@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import pytest
-
 from rescene_core.bench import hierview as bench
 
 
 def test_bench_on_a_tiny_scene(tmp_path):
-    pytest.importorskip("rescene_core.capture.synth")
     result = bench.run(seeds=[0], preset="tiny", work_dir=tmp_path)
     for name in bench.METHODS:
         m = result["methods"][name]

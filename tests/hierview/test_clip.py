@@ -6,15 +6,14 @@ import json
 import socket
 
 import numpy as np
+import open_clip
 import pytest
+import torch
 
 from rescene_core.config import HierViewConfig
 from rescene_core.hierview import ClipScorer, ClipUnavailableError, select_views
 from rescene_core.hierview.semantic import CLIP_WEIGHTS_ENV, make_scorer
 from rescene_core.records import ViewChoice
-
-open_clip = pytest.importorskip("open_clip")
-torch = pytest.importorskip("torch")
 
 TINY = "rescene-tiny-clip"
 TINY_CONFIG = {
