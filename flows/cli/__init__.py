@@ -53,9 +53,29 @@ def _format_summary(s: dict) -> str:
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
-    from rescene_core.capture.synth import synth_command
+    """`rescene synth`: write the capture and its pictures, print what was made and where."""
+    import time
 
-    return synth_command(args.out, preset=args.preset, seed=args.seed, overwrite=args.overwrite)
+    from rescene_core.capture.synth import make_scene, write_scene
+
+    start = time.perf_counter()
+    scene = make_scene(args.preset, args.seed)
+    paths = write_scene(args.out, scene, overwrite=args.overwrite, pictures=True)
+    elapsed = time.perf_counter() - start
+    counts: dict[str, int] = {}
+    for e in scene.events:
+        counts[e["kind"]] = counts.get(e["kind"], 0) + 1
+    a = scene.arrays
+    print(
+        f"wrote {paths['capture']}: {a.rgb.shape[0]} frames {a.rgb.shape[2]}x{a.rgb.shape[1]}, "
+        f"{len(scene.gt.objects)} objects, {len(a.instances)} instances, {len(a.points)} points "
+        f"({elapsed:.1f} s)"
+    )
+    print(f"panoptic errors: {', '.join(f'{k} {v}' for k, v in sorted(counts.items())) or 'none'}")
+    for key, p in paths.items():
+        if key != "capture":
+            print(f"{key}: {p}")
+    return 0
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -88,33 +108,38 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
-    from flows.evaluate import eval_command
+    """Write RUN/eval/metrics.json and RUN/eval/report.md, print the summary; --json also writes FILE."""
+    from rescene_core.evaluation import evaluate_run
+    from rescene_core.evaluation.run import format_metrics
+    from rescene_core.io import write_json_atomic
+    from rescene_core.paths import RunPaths
 
-    return eval_command(args)
+    metrics = evaluate_run(args.run)
+    run = RunPaths(args.run)
+    print(format_metrics(metrics))
+    print(f"wrote {run.metrics} and {run.report_md}")
+    if args.json:
+        write_json_atomic(args.json, metrics)
+    return 0
 
 
 def _cmd_log(args: argparse.Namespace) -> int:
-    from rescene_core.runlog.summary import log_command
+    """Print the summary of RUN/logs/run.mcap (exit 2 when there is no run log)."""
+    from rescene_core.runlog.summary import format_summary, summarise
 
-    return log_command(args.run)
+    print(format_summary(summarise(args.run)))
+    return 0
 
 
 def _cmd_prior_refit(args: argparse.Namespace) -> int:
-    from rescene_core.scenegraph.refit import prior_refit_command
+    from rescene_core.scenegraph.category import save_prior
+    from rescene_core.scenegraph.refit import refit_from_paths
 
-    return prior_refit_command(args.inputs, args.out, args.add_to)
-
-
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from flows.demo import demo_command
-
-    return demo_command(args)
-
-
-def _cmd_vqa(args: argparse.Namespace) -> int:
-    from rescene_core.vqa import vqa_command
-
-    return vqa_command(args.run, out=args.out, views=args.views, seed=args.seed)
+    prior = refit_from_paths(args.inputs, args.add_to)
+    save_prior(args.out, prior)
+    print(f"wrote {args.out}: {len(prior.counts)} child categories")
+    print(f"use it with --set scenegraph.fusion.prior_path={args.out}")
+    return 0
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -137,7 +162,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset, **options)
 
 
-COMMAND_GROUPS: list[str] = ["importers"]
+COMMAND_GROUPS: list[str] = ["importers", "demo", "vqa"]
 """Modules of ``flows.cli`` that add sub-commands: each has ``register(sub)``, which adds its parsers to
 the ``add_subparsers`` object and sets ``func`` (``args -> exit code``) on each."""
 
@@ -194,19 +219,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="the new prior table (JSON)")
     p.add_argument("--add-to", type=Path, help="add the counts to this table instead of starting empty")
     p.set_defaults(func=_cmd_prior_refit)
-
-    p = sub.add_parser("demo", help="synthetic capture -> validate -> the flow; prints where to look")
-    p.add_argument("--out", type=Path, default=Path("demo"))
-    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
-    p.add_argument("--seed", type=int, default=0)
-    p.set_defaults(func=_cmd_demo)
-
-    p = sub.add_parser("vqa", help="generate embodied VQA data (questions, rendered views) from an assembled run")
-    p.add_argument("run", type=Path, help="run directory written by `rescene run`")
-    p.add_argument("--out", type=Path, help="output directory (default RUN/vqa)")
-    p.add_argument("--views", type=int, help="viewpoints to sample and render (default VqaConfig.views)")
-    p.add_argument("--seed", type=int, help="seed of every random choice (default VqaConfig.seed)")
-    p.set_defaults(func=_cmd_vqa)
 
     for group in COMMAND_GROUPS:
         importlib.import_module(f"flows.cli.{group}").register(sub)

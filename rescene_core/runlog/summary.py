@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any
@@ -66,14 +65,3 @@ def format_summary(s: dict[str, Any]) -> str:
         for k, v in values.items():
             lines.append(f"  {k:32s} {v:.4g}" if isinstance(v, float) else f"  {k:32s} {v}")
     return "\n".join(lines)
-
-
-def log_command(run_dir: str | Path) -> int:
-    """Print the summary of ``RUN/logs/run.mcap``; 0 on success, 2 when there is no run log."""
-    try:
-        summary = summarise(run_dir)
-    except FileNotFoundError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    print(format_summary(summary))
-    return 0

@@ -9,7 +9,7 @@ from mcap.reader import make_reader
 
 from rescene_core.records import Plane, RoomShell, WallPlane
 from rescene_core.runlog import SceneObject, Segment, merge_segments, read_messages, scene_update
-from rescene_core.runlog.summary import log_command, summarise
+from rescene_core.runlog.summary import summarise
 
 SHELL = RoomShell(
     floor=Plane((0.0, 0.0, 1.0), 0.0),
@@ -74,7 +74,9 @@ def test_scene_update_entities():
 
 
 def test_log_command_summarises(tmp_path, capsys):
-    assert log_command(tmp_path) == 2
+    from flows.cli import main
+
+    assert main(["log", str(tmp_path)]) == 2
     seg = Segment(tmp_path, "flow")
     seg.log("/flow/tasks", {"stage": "registration", "item": 3, "state": "Completed", "cached": False})
     seg.log("/flow/tasks", {"stage": "registration", "item": 4, "state": "Cached", "cached": True})
@@ -86,6 +88,6 @@ def test_log_command_summarises(tmp_path, capsys):
     s = summarise(tmp_path)
     assert s["stages"]["registration"] == {"completed": 1, "cached": 1}
     assert s["state"] == "Failed" and s["missing"] == missing and s["metrics"]["evaluation"]["recall"] == 0.75
-    assert log_command(tmp_path) == 0
+    assert main(["log", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "missing instances (1)" in out and "no depth" in out

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from rescene_core.paths import RunPaths
 
 
 def _capture(out: Path, preset: str, seed: int, console: Console) -> Path:
@@ -31,7 +32,7 @@ def _capture(out: Path, preset: str, seed: int, console: Console) -> Path:
     return path
 
 
-def demo_command(args: argparse.Namespace) -> int:
+def _cmd_demo(args: argparse.Namespace) -> int:
     """Synthetic capture -> validation -> the flow (embedded mode) -> a list of the files to open."""
     os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
     from rescene_core.capture import check_capture, open_capture
@@ -73,7 +74,8 @@ def demo_command(args: argparse.Namespace) -> int:
         scene_flow.PROGRESS_LISTENERS.remove(on_instance)
     seconds = time.perf_counter() - start
     print(f"\nflow run: {state.name} in {seconds:.1f} s{': ' + state.message if state.message else ''}")
-    if (run_dir / "layout.json").exists():
+    run = RunPaths(run_dir)
+    if run.layout.exists():
         from rescene_core.vqa import VqaInputError, vqa_for_run
 
         try:
@@ -84,12 +86,12 @@ def demo_command(args: argparse.Namespace) -> int:
             console.print(f"vqa: skipped ({err})")
     print("where to look:")
     looks = [
-        ("scene (open in any glTF viewer)", run_dir / "scene" / "scene.glb"),
-        ("scene description", run_dir / "scene" / "scene.json"),
-        ("evaluation report", run_dir / "eval" / "report.md"),
-        ("run log (open in Foxglove Studio; `rescene log` summarises it)", run_dir / "logs" / "run.mcap"),
-        ("run manifest", run_dir / "manifest.json"),
-        ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run_dir / "vqa" / "questions.jsonl"),
+        ("scene (open in any glTF viewer)", run.scene_glb),
+        ("scene description", run.scene_json),
+        ("evaluation report", run.report_md),
+        ("run log (open in Foxglove Studio; `rescene log` summarises it)", run.run_log),
+        ("run manifest", run.manifest),
+        ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run.vqa / "questions.jsonl"),
     ]
     looks += [("picture", p) for p in sorted(out.glob(f"{capture.stem}*.png"))]
     for what, path in looks:
@@ -98,5 +100,9 @@ def demo_command(args: argparse.Namespace) -> int:
     return 0 if state.is_completed() else 1
 
 
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(demo_command(argparse.Namespace(out=Path("demo"), preset="tiny", seed=0)))
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("demo", help="synthetic capture -> validate -> the flow; prints where to look")
+    p.add_argument("--out", type=Path, default=Path("demo"))
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
