@@ -10,6 +10,7 @@ lines starting with ``#`` are ignored.
 
 from __future__ import annotations
 
+import io
 import time
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,8 @@ from prefect.client.orchestration import get_client
 from prefect.deployments import run_deployment
 
 from rescene_core.config import RunConfig
-from rescene_core.io import read_json
+from rescene_core.io import read_json, write_bytes_atomic
+from rescene_core.paths import RunPaths
 
 
 def read_split(split_file: str | Path) -> list[Path]:
@@ -41,7 +43,7 @@ def read_split(split_file: str | Path) -> list[Path]:
 
 def scene_done(run_dir: Path, capture: Path) -> bool:
     """Whether ``run_dir`` holds a Completed run of ``capture``."""
-    manifest = run_dir / "manifest.json"
+    manifest = RunPaths(run_dir).manifest
     if not manifest.exists():
         return False
     m = read_json(manifest)
@@ -64,7 +66,8 @@ SUMMARY_SCHEMA = pa.schema(
 
 
 def _row(capture: Path, run_dir: Path, state: str, skipped: bool, flow_run_id: str | None, message: str | None):
-    manifest = read_json(run_dir / "manifest.json") if (run_dir / "manifest.json").exists() else {}
+    path = RunPaths(run_dir).manifest
+    manifest = read_json(path) if path.exists() else {}
     return {
         "scene": capture.stem,
         "capture": str(capture),
@@ -130,9 +133,9 @@ def rescene_split(
         )
     table = pa.Table.from_pylist(rows, schema=SUMMARY_SCHEMA)
     summary_path = out / f"{Path(split_file).stem}_summary.parquet"
-    tmp = summary_path.with_suffix(".parquet.tmp")
-    pq.write_table(table, tmp)
-    tmp.replace(summary_path)
+    buffer = io.BytesIO()
+    pq.write_table(table, buffer)
+    write_bytes_atomic(summary_path, buffer.getvalue())
     counts = {
         "scenes": len(rows),
         "skipped": sum(r["skipped"] for r in rows),
