@@ -25,7 +25,6 @@ from prefect.states import Completed, Failed, State
 
 from rescene_core.capture import open_capture
 from rescene_core.config import RunConfig
-from rescene_core.export import ExportConfig
 from rescene_core.manifest import asset_cell, final_message, instance_row, now_iso
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Stage
@@ -54,7 +53,7 @@ def _bind(task_, run: RunPaths):
 def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict[str, Any]:
     """Run ReScene on ``capture`` (a capture .zarr) into ``run_dir`` with ``config`` (defaults: the paper)."""
     config = config or RunConfig()
-    export_config = ExportConfig()
+    export_config = config.export
     logger = get_run_logger()
     run = RunPaths(Path(run_dir).resolve())
     run.root.mkdir(parents=True, exist_ok=True)

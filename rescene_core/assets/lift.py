@@ -1,6 +1,6 @@
 """The weight-free ``lift`` backend: one view's masked depth, completed by symmetry, closed into a solid.
 
-1. The mask (eroded by ``lift_mask_erosion`` pixels to drop mixed edge depths) and valid depth pixels
+1. The mask (eroded by ``lift.mask_erosion`` pixels to drop mixed edge depths) and valid depth pixels
    are back-projected with the view's camera into the world; the depth noise inside the mask is
    measured from the same view (``depth_noise``).
 2. Shape cues from the visible points alone (``analyse_shape``): a near-planar upright surface (a
@@ -12,14 +12,14 @@
    the centroid of the lifted points, z = world up, y = the mirror normal, x = y cross z. The object's
    yaw in this frame depends on the chosen view, so registration has to recover it.
 4. Completion: a flat object becomes a thin slab behind its visible plane (its convex outline extruded
-   by ``lift_slab_fraction`` of its size, at least ``lift_slab_min_m``). Any other object is mirrored
-   about the vertical plane across y that makes its completed depth ``lift_depth_visible_factor``
+   by ``lift.slab_fraction`` of its size, at least ``lift.slab_min_m``). Any other object is mirrored
+   about the vertical plane across y that makes its completed depth ``lift.depth_visible_factor``
    times the visible depth extent (1: the plane halves the visible extent, so a box seen from above
-   or obliquely gets its true depth), at most ``lift_max_depth_ratio`` times its visible width.
-5. Silhouette fill: on a grid of ``lift_resolution`` cells along the longest side, each (x, z) column
+   or obliquely gets its true depth), at most ``lift.max_depth_ratio`` times its visible width.
+5. Silhouette fill: on a grid of ``lift.resolution`` cells along the longest side, each (x, z) column
    is filled between the smallest and largest y of the points in it (the solid the front and the
    mirrored back enclose), then closed morphologically and meshed by marching cubes: watertight. Only
-   the largest part is kept, parts within ``lift_join_cells`` cells of each other counting as one
+   the largest part is kept, parts within ``lift.join_cells`` cells of each other counting as one
    (chair legs and lamp stems one or two cells thin must not cut the object in pieces).
 
 What it cannot see it cannot make: a close-up crop (mask touching the image border), a grazing view
@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from rescene_core.assets.base import GenerationFailed, GeneratorInput, GeneratorOutput
-from rescene_core.config import AssetConfig
+from rescene_core.config import AssetConfig, LiftConfig
 from rescene_core.geometry import sim3
 from rescene_core.records import Camera
 
@@ -164,30 +164,30 @@ def _box_area(points: NDArray[np.float64], axis: NDArray[np.float64], percentile
     return float((hi_u - lo_u) * (hi_v - lo_v))
 
 
-def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg: AssetConfig) -> ShapeCues:
+def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg: LiftConfig) -> ShapeCues:
     """Dominant facing direction and flatness of the visible surface ``points`` [n, 3] (world, m).
 
-    Flat: a plane fitted to the ``lift_flat_inlier_fraction`` closest points holds 90 % of all points
-    within max(``lift_flat_noise_factor`` x ``noise`` (the depth noise, m), ``lift_flat_min_tolerance``
-    x the in-plane extent), and its normal lies within ``lift_flat_max_tilt_deg`` of horizontal (upright
-    panels: pictures, TVs, mirrors, clocks). Otherwise the normals (Open3D, ``lift_normal_neighbours``
+    Flat: a plane fitted to the ``lift.flat_inlier_fraction`` closest points holds 90 % of all points
+    within max(``lift.flat_noise_factor`` x ``noise`` (the depth noise, m), ``lift.flat_min_tolerance``
+    x the in-plane extent), and its normal lies within ``lift.flat_max_tilt_deg`` of horizontal (upright
+    panels: pictures, TVs, mirrors, clocks). Otherwise the normals (Open3D, ``lift.normal_neighbours``
     nearest points, oriented to the camera) vote, weighted by the surface area each pixel covers
-    (depth^2 / f^2 / |cos incidence|, the cosine floored at ``lift_min_incidence_cos``) times the
+    (depth^2 / f^2 / |cos incidence|, the cosine floored at ``lift.min_incidence_cos``) times the
     normal's squared horizontal length, for one orientation modulo 90 degrees (rectangular furniture);
     the facing direction is the one of the four that collects the most facing area. Below
-    ``lift_min_axis_strength`` agreement the direction towards the camera is used (round objects).
+    ``lift.min_axis_strength`` agreement the direction towards the camera is used (round objects).
     """
     import open3d as o3d
 
     towards = _horizontal_towards(points, camera.center)
-    centre, normal, axes, residual = _trimmed_plane(points, cfg.lift_flat_inlier_fraction)
+    centre, normal, axes, residual = _trimmed_plane(points, cfg.flat_inlier_fraction)
     in_plane = (points - centre) @ axes[:, 1:]
     extent = float(np.ptp(in_plane, axis=0).max())
     spread = float(np.quantile(residual, 0.9))
-    tolerance = max(cfg.lift_flat_noise_factor * noise, cfg.lift_flat_min_tolerance * extent)
+    tolerance = max(cfg.flat_noise_factor * noise, cfg.flat_min_tolerance * extent)
     planarity = spread / tolerance if tolerance > 0 else float("inf")
     tilt = float(np.degrees(np.arcsin(min(1.0, abs(float(normal[2]))))))
-    if planarity <= 1.0 and tilt <= cfg.lift_flat_max_tilt_deg:
+    if planarity <= 1.0 and tilt <= cfg.flat_max_tilt_deg:
         facing = normal.copy()
         facing[2] = 0.0
         facing /= np.linalg.norm(facing)
@@ -196,7 +196,7 @@ def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg
         return ShapeCues(facing, 1.0, True, planarity, "plane")
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(int(cfg.lift_normal_neighbours)))
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(int(cfg.normal_neighbours)))
     cloud.orient_normals_towards_camera_location(np.asarray(camera.center, np.float64))
     normals = np.asarray(cloud.normals)
     rays = points - np.asarray(camera.center, np.float64)
@@ -204,7 +204,7 @@ def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg
     incidence = np.abs(np.einsum("ij,ij->i", normals, rays)) / np.maximum(dist, 1e-9)
     cam_z = sim3.apply(sim3.inverse(camera.world_from_cam), points)[:, 2]
     focal = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1]))
-    area = (cam_z / focal) ** 2 / np.maximum(incidence, cfg.lift_min_incidence_cos)
+    area = (cam_z / focal) ** 2 / np.maximum(incidence, cfg.min_incidence_cos)
     horizontal = np.linalg.norm(normals[:, :2], axis=1)
     weight = area * horizontal**2
     angle = np.arctan2(normals[:, 1], normals[:, 0])
@@ -214,12 +214,12 @@ def analyse_shape(points: NDArray[np.float64], camera: Camera, noise: float, cfg
     base, area = footprint_yaw(points, 0.0)
     candidates = base + 0.5 * np.pi * np.arange(4)
     dirs = np.stack([np.cos(candidates), np.sin(candidates), np.zeros(4)], axis=1)
-    if strength < cfg.lift_min_axis_strength:
+    if strength < cfg.min_axis_strength:
         # no face dominates: a round object (its footprint box is about as tight at any yaw) keeps the
         # direction to the camera; a rectangular one seen through noise or legs has a footprint box
         # clearly tighter than the view-aligned one, and takes its axis nearest the camera
         view_area = _box_area(points, towards, 0.0)
-        if area > (1.0 - cfg.lift_min_axis_strength) * view_area:
+        if area > (1.0 - cfg.min_axis_strength) * view_area:
             return ShapeCues(towards, strength, False, planarity, "view")
         return ShapeCues(dirs[int(np.argmax(dirs @ towards))], strength, False, planarity, "footprint")
     facing_area = (weight[:, None] * np.maximum(normals[:, :2] @ dirs[:, :2].T, 0.0)).sum(axis=0)
@@ -238,19 +238,19 @@ def generator_frame(
     return sim3.sim3_from_parts(1.0, rot, centre)
 
 
-def complete_by_mirror(local: NDArray[np.float64], cfg: AssetConfig) -> tuple[NDArray[np.float64], dict[str, Any]]:
+def complete_by_mirror(local: NDArray[np.float64], cfg: LiftConfig) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """The visible points [n, 3] (generator frame: y = the facing normal) and their mirror image.
 
     The mirror plane y = p is placed so that the completed depth along y is
-    D = ``lift_depth_visible_factor`` x the visible depth extent, bounded by ``lift_max_depth_ratio``
+    D = ``lift.depth_visible_factor`` x the visible depth extent, bounded by ``lift.max_depth_ratio``
     x the visible width along x (objects are rarely much deeper than wide) and never below the visible
-    depth: p = y_front - D / 2. Extents are robust (``lift_extent_percentile`` to 100 minus it).
+    depth: p = y_front - D / 2. Extents are robust (``lift.extent_percentile`` to 100 minus it).
     """
-    q = cfg.lift_extent_percentile
+    q = cfg.extent_percentile
     (x_lo, y_lo), (x_hi, y_hi) = np.percentile(local[:, :2], [q, 100.0 - q], axis=0)
     visible_depth = float(y_hi - y_lo)
     width = float(x_hi - x_lo)
-    depth = min(cfg.lift_depth_visible_factor * visible_depth, cfg.lift_max_depth_ratio * width)
+    depth = min(cfg.depth_visible_factor * visible_depth, cfg.max_depth_ratio * width)
     depth = max(depth, visible_depth)
     plane = float(y_hi) - 0.5 * depth
     mirrored = local.copy()
@@ -266,11 +266,11 @@ def complete_by_mirror(local: NDArray[np.float64], cfg: AssetConfig) -> tuple[ND
 
 
 def flat_slab(
-    local: NDArray[np.float64], cfg: AssetConfig
+    local: NDArray[np.float64], cfg: LiftConfig
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """A thin upright slab for near-planar objects: the convex outline of the points [n, 3] (generator
     frame, y = the plane normal towards the camera) in the x-z plane, extruded backwards from the
-    visible plane by T = max(``lift_slab_min_m``, ``lift_slab_fraction`` x the outline's longest side).
+    visible plane by T = max(``lift.slab_min_m``, ``lift.slab_fraction`` x the outline's longest side).
     Returns vertices [v, 3], faces [f, 3] (watertight) and the completion record."""
     import trimesh
     from shapely.geometry import MultiPoint
@@ -281,7 +281,7 @@ def flat_slab(
     outline = outline.simplify(0.002 * float(np.sqrt(outline.area)))
     minx, minz, maxx, maxz = outline.bounds
     extent = float(max(maxx - minx, maxz - minz))
-    thickness = max(cfg.lift_slab_min_m, cfg.lift_slab_fraction * extent)
+    thickness = max(cfg.slab_min_m, cfg.slab_fraction * extent)
     front = float(np.median(local[:, 1]))
     slab = trimesh.creation.extrude_polygon(outline, thickness)
     # extrusion frame (u, v, w) -> generator (x = u, y = front - w, z = v): a proper rotation
@@ -378,25 +378,25 @@ class LiftBackend:
         self.config = config
 
     def generate(self, view: GeneratorInput) -> GeneratorOutput:
-        cfg = self.config
+        cfg = self.config.lift
         pixels = int(np.count_nonzero(view.mask))
-        if pixels < cfg.lift_min_pixels:
-            raise GenerationFailed(f"mask has {pixels} pixels; the lift backend needs >= {cfg.lift_min_pixels}")
-        world = lift_points(view, cfg.lift_mask_erosion)
-        if len(world) < cfg.lift_min_pixels:
-            raise GenerationFailed(f"only {len(world)} masked pixels have valid depth (< {cfg.lift_min_pixels})")
+        if pixels < cfg.min_pixels:
+            raise GenerationFailed(f"mask has {pixels} pixels; the lift backend needs >= {cfg.min_pixels}")
+        world = lift_points(view, cfg.mask_erosion)
+        if len(world) < cfg.min_pixels:
+            raise GenerationFailed(f"only {len(world)} masked pixels have valid depth (< {cfg.min_pixels})")
         world = _remove_outliers(world)
-        noise = depth_noise(view, cfg.lift_noise_erosion)
+        noise = depth_noise(view, cfg.noise_erosion)
         shape = analyse_shape(world, view.camera, noise, cfg)
         world_from_generator = generator_frame(world, view.camera.center, shape.facing)
         local = sim3.apply(sim3.inverse(world_from_generator), world)
         completion: dict[str, Any]
-        if shape.flat and cfg.lift_mirror:
+        if shape.flat and cfg.mirror:
             vertices, faces, completion = flat_slab(local, cfg)
         else:
-            completed, completion = complete_by_mirror(local, cfg) if cfg.lift_mirror else (local, {"kind": "none"})
-            vertices, faces = solid_from_points(completed, cfg.lift_resolution, cfg.lift_join_cells)
-            vertices, faces = _decimate(vertices, faces, cfg.target_faces)
+            completed, completion = complete_by_mirror(local, cfg) if cfg.mirror else (local, {"kind": "none"})
+            vertices, faces = solid_from_points(completed, cfg.resolution, cfg.join_cells)
+            vertices, faces = _decimate(vertices, faces, self.config.target_faces)
         mask = np.asarray(view.mask, bool)
         touches = bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())
         metadata: dict[str, Any] = {
@@ -405,11 +405,11 @@ class LiftBackend:
             "mask_pixels": pixels,
             "lifted_points": int(len(world)),
             "mask_touches_border": touches,
-            "mirror_completion": bool(cfg.lift_mirror),
+            "mirror_completion": bool(cfg.mirror),
             "completion": completion,
             "shape": shape.to_json(),
             "depth_noise_m": noise,
-            "resolution": int(cfg.lift_resolution),
+            "resolution": int(cfg.resolution),
             "weights": "none (geometric backend)",
             # the canonicalisation this backend used; kept for inspection, not handed to registration
             "world_from_generator": world_from_generator.tolist(),

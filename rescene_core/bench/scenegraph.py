@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from rescene_core.capture import open_capture
-from rescene_core.config import KeyFrameConfig, SceneGraphConfig, ShellConfig
+from rescene_core.config import KeyFrameConfig, SceneGraphConfig, ShellConfig, VlmClientConfig
 from rescene_core.records import Root, SceneGraph
 from rescene_core.scenegraph import FramePrediction, fuse_with_report, make_predictor, predict_frames
 from rescene_core.scenegraph.frame import render_overlay
@@ -189,7 +189,9 @@ def _loopback_run(capture, frames, shell, geometric: list[FramePrediction], seed
 
     start = time.perf_counter()
     with LoopbackServer(script) as server:
-        cfg = SceneGraphConfig(backend="openai", base_url=server.base_url, timeout_s=30.0, backoff_s=0.05)
+        cfg = SceneGraphConfig(
+            backend="openai", vlm=VlmClientConfig(base_url=server.base_url, timeout_s=30.0, backoff_s=0.05)
+        )
         predictor = make_predictor(cfg)
         preds = predict_frames(capture, frames, shell, cfg, predictor)
         graph, report = fuse_with_report(preds, capture, shell, cfg, predictor=predictor)

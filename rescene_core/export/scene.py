@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from pydantic import BaseModel, ConfigDict
 
+from rescene_core.config import ExportConfig
 from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
@@ -25,25 +25,6 @@ from rescene_core.records import Missing, RoomShell, Root, SceneGraph, parent_to
 
 SCENE_FORMAT = "rescene-scene"
 SCENE_VERSION = 1
-
-
-class ExportConfig(BaseModel):
-    """How the room shell is turned into geometry for viewing (objects are exported as they are)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
-
-    wall_height: float = 2.5
-    """Height of the exported walls when the shell has no ceiling height (m)."""
-    wall_thickness: float = 0.05
-    """Thickness of the exported wall slabs, extruded outwards from the wall plane (m)."""
-    floor_thickness: float = 0.02
-    """Thickness of the exported floor slab, extruded downwards from the floor plane (m)."""
-    points_per_m2: float = 4000.0
-    """Surface samples per square metre of placed mesh in ``scene/points.zarr``."""
-    min_points_per_object: int = 200
-    """Fewest samples of one object in ``scene/points.zarr``."""
-    max_points_per_object: int = 20000
-    """Most samples of one object in ``scene/points.zarr``."""
 
 
 def floor_height(shell: RoomShell) -> float:

@@ -72,7 +72,7 @@ def load_prior(path: str | Path | None = None) -> CategoryPrior:
     try:
         data = json.loads(path.read_text())
     except FileNotFoundError:
-        raise FileNotFoundError(f"relation prior {path} does not exist; set scenegraph.prior_path") from None
+        raise FileNotFoundError(f"relation prior {path} does not exist; set scenegraph.fusion.prior_path") from None
     except json.JSONDecodeError as err:
         raise ValueError(f"relation prior {path} is not valid JSON: {err}") from None
     if data.get("format") != PRIOR_FORMAT or not isinstance(data.get("counts"), dict):

@@ -155,7 +155,7 @@ def predict_frame(
 ) -> FramePrediction:
     """Ask ``predictor`` for the relations of every instance visible in ``frame``, validating and retrying.
 
-    Up to ``config.retry_budget`` validation retries, each with the errors and the previous answer in the
+    Up to ``config.vlm.retry_budget`` validation retries, each with the errors and the previous answer in the
     prompt. A transport failure (after the backend's own retries) ends the frame with status 'failed'.
     """
     start = time.perf_counter()
@@ -174,7 +174,7 @@ def predict_frame(
     attempts: list[Attempt] = []
     best = None
     status: Status = "failed"
-    for k in range(config.retry_budget + 1):
+    for k in range(config.vlm.retry_budget + 1):
         t0 = time.perf_counter()
         query = Query("relations", SYSTEM_PROMPT, prompt, image_png, schema, view, capture, shell)
         try:
@@ -190,7 +190,7 @@ def predict_frame(
                 )
             )
             break
-        result = validate_answer(raw, categories, config.min_id_coverage)
+        result = validate_answer(raw, categories, config.vlm.min_id_coverage)
         attempts.append(
             Attempt(
                 "initial" if k == 0 else "retry",
@@ -232,8 +232,8 @@ def predict_frames(
     config: SceneGraphConfig,
     predictor: RelationPredictor,
 ) -> list[FramePrediction]:
-    """``predict_frame`` over several frames, at most ``config.max_concurrency`` at a time, in frame order."""
-    workers = max(1, min(config.max_concurrency, len(frames)))
+    """``predict_frame`` over several frames, at most ``config.vlm.max_concurrency`` at a time, in frame order."""
+    workers = max(1, min(config.vlm.max_concurrency, len(frames)))
     if workers == 1:
         return [predict_frame(capture, t, shell, config, predictor) for t in frames]
     with ThreadPoolExecutor(max_workers=workers) as pool:

@@ -91,12 +91,12 @@ def _key(c: Candidate) -> tuple:
 
 
 def _weights(config: SceneGraphConfig, with_shell: bool) -> dict[str, float]:
-    scale = 1.0 - config.shell_weight if with_shell else 1.0
+    scale = 1.0 - config.fusion.shell_weight if with_shell else 1.0
     return {
-        "V": config.alpha * scale,
-        "G": config.beta * scale,
-        "Phi": config.gamma * scale,
-        "shell": config.shell_weight if with_shell else 0.0,
+        "V": config.fusion.alpha * scale,
+        "G": config.fusion.beta * scale,
+        "Phi": config.fusion.gamma * scale,
+        "shell": config.fusion.shell_weight if with_shell else 0.0,
     }
 
 
@@ -110,9 +110,9 @@ def _proposals(child: InstanceGeometry, geometry: dict[InstanceId, InstanceGeome
         if iid == child.instance or g.empty:
             continue
         glo, ghi = g.points[:, :2].min(axis=0), g.points[:, :2].max(axis=0)
-        if (glo > hi + config.support_radius).any() or (ghi < lo - config.support_radius).any():
+        if (glo > hi + config.geometric.support_radius).any() or (ghi < lo - config.geometric.support_radius).any():
             continue
-        if object_support(child, g, config) >= config.min_support_overlap:
+        if object_support(child, g, config) >= config.geometric.min_support_overlap:
             out.append(iid)
     return out
 
@@ -141,7 +141,7 @@ def _ab_recheck(
     votes = {"A": 0, "B": 0}
     calls: list[dict[str, Any]] = []
     for pred in frames:
-        if len(calls) >= config.ab_frames:
+        if len(calls) >= config.fusion.ab_frames:
             break
         to_display = {v.instance: v.display for v in pred.visible}
 
@@ -169,7 +169,7 @@ def _ab_recheck(
         calls.append({"frame": pred.frame, "prompt": prompt, "raw": raw, "answer": choice})
     pick = 1 if votes["B"] > votes["A"] else 0
     accepted = True
-    if pick == 1 and b["G"] < a["G"] - config.ab_geometry_margin:
+    if pick == 1 and b["G"] < a["G"] - config.fusion.ab_geometry_margin:
         pick, accepted = 0, False
     report.ab.append(
         {
@@ -206,9 +206,9 @@ def fuse_with_report(
     non-missing object instance has exactly one parent) and the report.
     """
     start = time.perf_counter()
-    with_shell = shell is not None and config.use_shell_prior and variant == "full"
+    with_shell = shell is not None and config.fusion.use_shell_prior and variant == "full"
     shell_used = shell if shell is not None else floor_only_shell(capture)
-    prior = prior if prior is not None else load_prior(config.prior_path)
+    prior = prior if prior is not None else load_prior(config.fusion.prior_path)
     weights = _weights(config, with_shell) if variant == "full" else {"V": 1.0, "G": 0.0, "Phi": 0.0, "shell": 0.0}
     report = FusionReport(variant, weights, with_shell, prior.provenance)
     missing = {int(m) for m in missing}
@@ -270,7 +270,7 @@ def fuse_with_report(
         rows = ranked_by_child[c]
         top = rows[0]["S"]
         margin = top - rows[1]["S"] if len(rows) > 1 else top
-        if margin < config.uncertain_margin or top < config.uncertain_top:
+        if margin < config.fusion.uncertain_margin or top < config.fusion.uncertain_top:
             flags[c].append("uncertain")
             if predictor is not None and predictor.supports_ab and variant == "full" and len(rows) > 1:
                 pick = _ab_recheck(c, rows, predictions, capture, shell, config, predictor, report)
@@ -316,7 +316,7 @@ def fuse_with_report(
         rel, parent = row["candidate"]
         others = [r["S"] for k, r in enumerate(rows) if k != choice[c]]
         margin = row["S"] - max(others) if others else row["S"]
-        if row["S"] < config.low_confidence:
+        if row["S"] < config.fusion.low_confidence:
             flags[c].append("low-confidence")
             report.low_confidence.append(int(c))
         if "uncertain" in flags[c]:

@@ -81,7 +81,7 @@ class GeometricPredictor:
     def answer(self, query: Query) -> str:
         if query.kind != "relations":
             raise ValueError("the geometric backend answers only the per-frame relation prompt")
-        cfg = self.config
+        cfg = self.config.geometric
         view, capture = query.view, query.capture
         shell = query.shell if query.shell is not None else floor_only_shell(capture)
         pts = {v.display: visible_points(capture, view, int(v.instance)) for v in view.visible}

@@ -2,7 +2,7 @@
 
     vllm serve Qwen/Qwen3-VL-32B-Instruct --port 8000        # on a GPU machine
     rescene run CAPTURE --out RUN --set scenegraph.backend=openai \
-        --set scenegraph.base_url=http://gpu-box:8000/v1
+        --set scenegraph.vlm.base_url=http://gpu-box:8000/v1
 
 The overlay image goes as a base64 ``image_url`` part; the answer is forced to the prompt's JSON schema
 with ``response_format={"type": "json_schema", ...}``. Requests time out after ``timeout_s``; at most
@@ -10,7 +10,7 @@ with ``response_format={"type": "json_schema", ...}``. Requests time out after `
 ``transport_retries`` times with exponential backoff (``backoff_s``, doubling). Other HTTP errors are not
 retried. Invalid answers are not transport errors: the caller's validation retries handle them.
 
-The API key comes from ``config.api_key`` or the environment variable ``config.api_key_env``. It is sent
+The API key comes from ``config.vlm.api_key`` or the environment variable ``config.vlm.api_key_env``. It is sent
 only in the Authorization header and never appears in a log, a record or an exception message.
 """
 
@@ -26,12 +26,12 @@ from typing import Any
 
 import httpx
 
-from rescene_core.config import SceneGraphConfig
+from rescene_core.config import SceneGraphConfig, VlmClientConfig
 from rescene_core.scenegraph.backend import Query, TransportError
 
 BASE_URL_ENV = "RESCENE_VLM_BASE_URL"
 MODEL_ENV = "RESCENE_VLM_MODEL"
-DEFAULT_MODEL = SceneGraphConfig.model_fields["model"].default
+DEFAULT_MODEL = VlmClientConfig.model_fields["model"].default
 ERROR_BODY_CHARS = 300
 """Characters of an HTTP error body kept in an error message (after redaction)."""
 
@@ -45,22 +45,22 @@ class OpenAIPredictor:
     supports_ab = True
 
     def __init__(self, config: SceneGraphConfig, client: httpx.Client | None = None):
-        base_url = config.base_url or os.environ.get(BASE_URL_ENV)
+        base_url = config.vlm.base_url or os.environ.get(BASE_URL_ENV)
         if not base_url:
             raise ValueError(
-                f"the openai scene-graph backend needs an endpoint: set scenegraph.base_url or {BASE_URL_ENV} "
+                f"the openai scene-graph backend needs an endpoint: set scenegraph.vlm.base_url or {BASE_URL_ENV} "
                 "(for `vllm serve MODEL --port 8000` use http://HOST:8000/v1)"
             )
         self.base_url = base_url.rstrip("/")
         env_model = os.environ.get(MODEL_ENV)
-        self.model = env_model if env_model and config.model == DEFAULT_MODEL else config.model
+        self.model = env_model if env_model and config.vlm.model == DEFAULT_MODEL else config.vlm.model
         self.config = config
-        self._key = config.api_key or os.environ.get(config.api_key_env) or None
+        self._key = config.vlm.api_key or os.environ.get(config.vlm.api_key_env) or None
         headers = {"Content-Type": "application/json"}
         if self._key:
             headers["Authorization"] = f"Bearer {self._key}"
-        self._client = client or httpx.Client(headers=headers, timeout=httpx.Timeout(config.timeout_s))
-        self._slots = threading.BoundedSemaphore(max(1, config.max_concurrency))
+        self._client = client or httpx.Client(headers=headers, timeout=httpx.Timeout(config.vlm.timeout_s))
+        self._slots = threading.BoundedSemaphore(max(1, config.vlm.max_concurrency))
         self._lock = threading.Lock()
         self.stats = {"calls": 0, "transport_retries": 0, "transport_failures": 0}
 
@@ -97,8 +97,8 @@ class OpenAIPredictor:
                 "type": "json_schema",
                 "json_schema": {"name": f"rescene_{query.kind}", "schema": query.schema, "strict": True},
             },
-            "temperature": self.config.temperature,
-            "max_tokens": self.config.max_tokens,
+            "temperature": self.config.vlm.temperature,
+            "max_tokens": self.config.vlm.max_tokens,
         }
 
     def answer(self, query: Query) -> str:
@@ -106,10 +106,10 @@ class OpenAIPredictor:
         body = self.request_body(query)
         url = f"{self.base_url}/chat/completions"
         problem = "no attempt"
-        for attempt in range(self.config.transport_retries + 1):
+        for attempt in range(self.config.vlm.transport_retries + 1):
             if attempt:
                 self._count("transport_retries")
-                delay = self.config.backoff_s * 2 ** (attempt - 1)
+                delay = self.config.vlm.backoff_s * 2 ** (attempt - 1)
                 log.warning("retrying %s in %.2fs after: %s", url, delay, problem)
                 time.sleep(delay)
             self._count("calls")
@@ -117,7 +117,7 @@ class OpenAIPredictor:
                 with self._slots:
                     response = self._client.post(url, json=body)
             except httpx.TimeoutException:
-                problem = f"timed out after {self.config.timeout_s}s"
+                problem = f"timed out after {self.config.vlm.timeout_s}s"
                 continue
             except httpx.TransportError as err:
                 problem = self.redact(f"{type(err).__name__}: {err}")
@@ -137,4 +137,6 @@ class OpenAIPredictor:
                 continue
             return content if isinstance(content, str) else json.dumps(content)
         self._count("transport_failures")
-        raise TransportError(f"{url}: giving up after {self.config.transport_retries + 1} attempts; last: {problem}")
+        raise TransportError(
+            f"{url}: giving up after {self.config.vlm.transport_retries + 1} attempts; last: {problem}"
+        )

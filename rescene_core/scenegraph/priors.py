@@ -104,12 +104,14 @@ def drop_strays(points: NDArray, config: SceneGraphConfig) -> NDArray[np.float64
     the lower contact surface and the footprint rectangle. The points are returned unchanged when the
     filter is off, when there are too few of them, or when it would leave fewer than half of them."""
     pts = np.asarray(points, dtype=np.float64)
-    if config.outlier_min_points <= 0 or len(pts) < 2 * config.outlier_min_points:
+    if config.fusion.outlier_min_points <= 0 or len(pts) < 2 * config.fusion.outlier_min_points:
         return pts
     import open3d as o3d
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-    labels = np.asarray(cloud.cluster_dbscan(eps=config.outlier_eps, min_points=config.outlier_min_points))
+    labels = np.asarray(
+        cloud.cluster_dbscan(eps=config.fusion.outlier_eps, min_points=config.fusion.outlier_min_points)
+    )
     keep = labels >= 0
     return pts[keep] if keep.sum() >= 0.5 * len(pts) else pts
 
@@ -121,8 +123,10 @@ def instance_geometry(
     by ``drop_strays``)."""
     pts = np.asarray(capture.point_cloud(instance).points, dtype=np.float64)
     pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) > config.max_fusion_points:
-        pts = pts[np.random.default_rng(seed + int(instance)).choice(len(pts), config.max_fusion_points, replace=False)]
+    if len(pts) > config.fusion.max_fusion_points:
+        pts = pts[
+            np.random.default_rng(seed + int(instance)).choice(len(pts), config.fusion.max_fusion_points, replace=False)
+        ]
     pts = drop_strays(pts, config)
     iid = InstanceId(int(instance))
     if len(pts) < 3:
@@ -130,7 +134,7 @@ def instance_geometry(
             iid, pts.reshape(-1, 3), np.zeros(len(pts)), np.zeros(len(pts), bool), np.inf, -np.inf, 0.0, None
         )
     h = heights(shell, pts)
-    upward = upward_mask(pts, shell, config.normal_neighbours, config.upward_normal_deg)
+    upward = upward_mask(pts, shell, config.geometric.normal_neighbours, config.geometric.upward_normal_deg)
     polygon = shell.polygon().buffer(POLYGON_TOLERANCE) if len(shell.floor_polygon) >= 3 else None
     inside = float(shapely.contains_xy(polygon, pts[:, 0], pts[:, 1]).mean()) if polygon is not None else 1.0
     yaw, elongation = footprint_axes(pts[:, :2])
@@ -155,7 +159,7 @@ def floor_contact(child: InstanceGeometry, config: SceneGraphConfig) -> float:
     """G for (child, rests-on, floor)."""
     if child.empty:
         return 0.0
-    return _gauss(abs(child.bottom), config.floor_sigma) * child.inside
+    return _gauss(abs(child.bottom), config.fusion.floor_sigma) * child.inside
 
 
 def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraphConfig) -> tuple[float, int | None]:
@@ -167,7 +171,7 @@ def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraph
         lateral = wall_fit(child.points, wall)[1]
         residual = wall_back(child.points, wall)
         agree = normal_agreement(child, np.asarray(wall.plane.normal, dtype=np.float64))
-        score = _gauss(residual, config.wall_sigma) * agree * lateral
+        score = _gauss(residual, config.fusion.wall_sigma) * agree * lateral
         if score > best:
             best, best_id = score, wall.id
     return best, best_id
@@ -175,20 +179,20 @@ def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraph
 
 def object_support(child: InstanceGeometry, parent: InstanceGeometry, config: SceneGraphConfig) -> float:
     """G for (child, rests-on, parent): an upward face of the parent at the child's bottom, under it."""
-    if child.empty or parent.empty or not parent.bottom < child.bottom - config.support_tol:
+    if child.empty or parent.empty or not parent.bottom < child.bottom - config.geometric.support_tol:
         return 0.0
-    band = max(config.support_tol, CONTACT_BAND_RATIO * (child.top - child.bottom))
+    band = max(config.geometric.support_tol, CONTACT_BAND_RATIO * (child.top - child.bottom))
     footprint = child.points[child.height <= child.bottom + band][:, :2]
-    face_mask = parent.upward & (np.abs(parent.height - child.bottom) <= 2 * config.support_tol)
+    face_mask = parent.upward & (np.abs(parent.height - child.bottom) <= 2 * config.geometric.support_tol)
     if len(footprint) == 0 or face_mask.sum() < 3:
         return 0.0
     face = parent.points[face_mask]
-    dist, idx = cKDTree(face[:, :2]).query(footprint, distance_upper_bound=config.support_radius)
+    dist, idx = cKDTree(face[:, :2]).query(footprint, distance_upper_bound=config.geometric.support_radius)
     hit = np.isfinite(dist)
     if not hit.any():
         return 0.0
     gap = abs(float(np.median(parent.height[face_mask][idx[hit]])) - child.bottom)
-    return _gauss(gap, config.support_sigma) * float(hit.mean())
+    return _gauss(gap, config.fusion.support_sigma) * float(hit.mean())
 
 
 def geometric_prior(
@@ -211,13 +215,13 @@ def shell_prior(child: InstanceGeometry, parent: Parent, shell: RoomShell, confi
     """The room-shell prior of an edge into ``child`` (see the module docstring)."""
     if child.empty:
         return 0.0
-    touches = _gauss(max(0.0, child.bottom), config.floor_sigma)
+    touches = _gauss(max(0.0, child.bottom), config.fusion.floor_sigma)
     if parent == Root.FLOOR:
         return touches * child.inside
     if parent == Root.WALL:
         near = 0.0
         for wall in shell.walls:
             residual, lateral = wall_fit(child.points, wall)
-            near = max(near, _gauss(residual, config.wall_sigma) * lateral)
+            near = max(near, _gauss(residual, config.fusion.wall_sigma) * lateral)
         return (1.0 - touches) * near
     return (1.0 - touches) * child.inside

@@ -51,5 +51,5 @@ def prior_refit_command(paths: list[str | Path], out: str | Path, add_to: str | 
     prior = refit_from_paths(paths, add_to)
     save_prior(out, prior)
     print(f"wrote {out}: {len(prior.counts)} child categories")
-    print(f"use it with --set scenegraph.prior_path={out}")
+    print(f"use it with --set scenegraph.fusion.prior_path={out}")
     return 0

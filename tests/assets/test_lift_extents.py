@@ -58,6 +58,6 @@ def test_solid_spans_its_points_without_a_cell_of_growth():
     rng = np.random.default_rng(2)
     # a 1.7 m tall, 0.9 wide, 0.33 deep block of points: one grid cell (1.7 / 40 = 4 cm) is 13 % of its depth
     points = rng.uniform([-0.45, -0.165, 0.0], [0.45, 0.165, 1.7], (20000, 3))
-    mesh = trimesh.Trimesh(*solid_from_points(points, CONFIG.lift_resolution, CONFIG.lift_join_cells))
+    mesh = trimesh.Trimesh(*solid_from_points(points, CONFIG.lift.resolution, CONFIG.lift.join_cells))
     np.testing.assert_allclose(np.ptp(mesh.vertices, axis=0), np.ptp(points, axis=0), rtol=1e-6)
     assert mesh.is_watertight

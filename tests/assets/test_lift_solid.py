@@ -20,8 +20,8 @@ def _lamp_points(rng: np.random.Generator) -> np.ndarray:
 def test_parts_a_few_cells_apart_stay_one_object():
     points = _lamp_points(np.random.default_rng(0))
     cfg = AssetConfig()
-    strict = trimesh.Trimesh(*solid_from_points(points, cfg.lift_resolution, 0))
-    joined = trimesh.Trimesh(*solid_from_points(points, cfg.lift_resolution, cfg.lift_join_cells))
+    strict = trimesh.Trimesh(*solid_from_points(points, cfg.lift.resolution, 0))
+    joined = trimesh.Trimesh(*solid_from_points(points, cfg.lift.resolution, cfg.lift.join_cells))
     assert np.ptp(strict.vertices[:, 2]) < 0.4  # shade and upper stem only: the base is lost
     assert abs(np.ptp(joined.vertices[:, 2]) - 0.5) < 0.05
     assert joined.is_watertight
@@ -33,6 +33,6 @@ def test_far_stray_island_is_still_dropped():
     stray = rng.uniform(-0.01, 0.01, (30, 3)) + np.array([0.6, 0.0, 0.25])  # bleed 0.5 m beside the lamp
     cfg = AssetConfig()
     mesh = trimesh.Trimesh(
-        *solid_from_points(np.concatenate([points, stray]), cfg.lift_resolution, cfg.lift_join_cells)
+        *solid_from_points(np.concatenate([points, stray]), cfg.lift.resolution, cfg.lift.join_cells)
     )
     assert mesh.vertices[:, 0].max() < 0.2

@@ -77,7 +77,7 @@ def test_retry_budget_is_two_then_partial_or_failed(room_capture, shell):
     cfg = SceneGraphConfig()
     bad = Scripted(["nope"] * 5)
     p = predict_frame(room_capture, 0, shell, cfg, bad)
-    assert p.status == "failed" and len(p.attempts) == cfg.retry_budget + 1 and p.relations == {}
+    assert p.status == "failed" and len(p.attempts) == cfg.vlm.retry_budget + 1 and p.relations == {}
 
     def one_missing(query):
         data = json.loads(correct(query))

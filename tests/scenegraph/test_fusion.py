@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from rescene_core.config import SceneGraphConfig
+from rescene_core.config import FusionConfig, SceneGraphConfig
 from rescene_core.records import InstanceId, Relation, Root
 from rescene_core.scenegraph import FramePrediction, fuse, fuse_with_report, make_predictor, predict_frames, write_graph
 from rescene_core.scenegraph.view import VisibleInstance
@@ -102,7 +102,7 @@ def test_ab_reranking_accepts_only_answers_geometry_does_not_contradict(room_cap
     a = {7: (Relation.RESTS_ON, InstanceId(6)), 6: (Relation.RESTS_ON, Root.FLOOR)}
     b = {7: (Relation.MOUNTS_ON, Root.WALL), 6: (Relation.RESTS_ON, Root.FLOOR)}
     preds = [fake(t, a if t % 2 else b, (6, 7)) for t in range(4)]
-    cfg = SceneGraphConfig(uncertain_top=0.99)
+    cfg = SceneGraphConfig(fusion=FusionConfig(uncertain_top=0.99))
     for choice in ("A", "B"):
         predictor = ABPredictor(choice)
         graph, report = fuse_with_report(preds, room_capture, shell, cfg, predictor=predictor)

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from rescene_core.config import SceneGraphConfig
+from rescene_core.config import SceneGraphConfig, VlmClientConfig
 from rescene_core.scenegraph import TransportError, make_predictor, predict_frame
 from rescene_core.scenegraph.loopback import LoopbackServer, Reply, user_text
 from tests.scenegraph.test_frame import GT
@@ -30,9 +30,9 @@ def good_answer(request):
 
 
 def config(server, **kw):
-    base = dict(backend="openai", base_url=server.base_url, api_key=KEY, timeout_s=2.0, backoff_s=0.01)
-    base.update(kw)
-    return SceneGraphConfig(**base)
+    vlm = dict(base_url=server.base_url, api_key=KEY, timeout_s=2.0, backoff_s=0.01)
+    vlm.update(kw)
+    return SceneGraphConfig(backend="openai", vlm=VlmClientConfig(**vlm))
 
 
 def scripted(*replies):

@@ -7,7 +7,7 @@ import numpy as np
 import open3d as o3d
 import pytest
 
-from rescene_core.config import SceneGraphConfig
+from rescene_core.config import FusionConfig, SceneGraphConfig
 from rescene_core.records import InstanceId
 from rescene_core.scenegraph.priors import (
     drop_strays,
@@ -47,7 +47,7 @@ def test_drop_strays_keeps_the_body_and_drops_scattered_points():
     kept = drop_strays(pts, SceneGraphConfig())
     assert len(body) - 10 <= len(kept) < len(pts) - 50
     assert kept[:, 2].min() > 0.74
-    assert len(drop_strays(pts, SceneGraphConfig(outlier_min_points=0))) == len(pts)
+    assert len(drop_strays(pts, SceneGraphConfig(fusion=FusionConfig(outlier_min_points=0)))) == len(pts)
     # too few points, or a cloud the filter would mostly empty, comes back unchanged
     sparse = strays(40, rng)
     assert len(drop_strays(sparse, SceneGraphConfig())) == len(sparse)
@@ -62,7 +62,7 @@ def test_mirror_with_strays_keeps_its_wall_alignment():
     t = rng.uniform(0.0, 1.0, 60)
     streak = np.column_stack([1.8 + 2.0 * t, SIZE - 2.0 * t, rng.uniform(1.2, 1.9, 60)])
     cap = CloudCapture({5: np.concatenate([mirror, streak])})
-    raw = instance_geometry(cap, 5, shell, SceneGraphConfig(outlier_min_points=0))
+    raw = instance_geometry(cap, 5, shell, SceneGraphConfig(fusion=FusionConfig(outlier_min_points=0)))
     clean = instance_geometry(cap, 5, shell, SceneGraphConfig())
     raw_score, _ = wall_alignment(raw, shell, SceneGraphConfig())
     score, wall_id = wall_alignment(clean, shell, SceneGraphConfig())
@@ -81,7 +81,7 @@ def test_book_on_a_table_with_strays_is_supported_by_the_table_not_the_floor():
     cap = CloudCapture({1: np.concatenate([top, legs]), 2: np.concatenate([book, strays(80, rng)])})
     cfg = SceneGraphConfig()
     table = instance_geometry(cap, 1, shell, cfg)
-    raw = instance_geometry(cap, 2, shell, SceneGraphConfig(outlier_min_points=0))
+    raw = instance_geometry(cap, 2, shell, SceneGraphConfig(fusion=FusionConfig(outlier_min_points=0)))
     clean = instance_geometry(cap, 2, shell, cfg)
     assert raw.bottom < 0.3 and floor_contact(raw, cfg) > 0.0  # the defect: strays below the book
     assert clean.bottom == pytest.approx(0.75, abs=0.01)
