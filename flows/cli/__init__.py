@@ -143,7 +143,7 @@ def _cmd_prior_refit(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from rescene_core.bench import SUITES, run_suite
+    from rescene_core.bench import SUITES, SuiteUnavailable, run_suite
 
     if args.list:
         print("\n".join(SUITES))
@@ -159,7 +159,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         from flows.bench import PrefectHarness
 
         options["harness"] = PrefectHarness()
-    return run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset, **options)
+    try:
+        done = run_suite(args.suite, out_dir=Path(args.out), seeds=args.seeds, preset=args.preset, **options)
+    except SuiteUnavailable as err:
+        print(str(err))
+        return 1
+    print(done.table)
+    print(f"wrote {done.path}")
+    return 0
 
 
 COMMAND_GROUPS: list[str] = ["importers", "demo", "vqa"]

@@ -7,11 +7,14 @@ JSON-serialisable result, and ``table(result: dict) -> str`` rendering it for th
 from __future__ import annotations
 
 import importlib
-import json
 import os
 import platform
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+from rescene_core.io import write_json_atomic
 
 SUITES: dict[str, str] = {
     "synth": "rescene_core.bench.synth",
@@ -28,15 +31,27 @@ def machine_info() -> dict[str, object]:
     return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
 
 
-def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str, **options: object) -> int:
-    """Run one suite, print its table, write ``out_dir/<name>.json``; returns an exit code.
+class SuiteUnavailable(RuntimeError):
+    """The suite's module is not part of this build."""
+
+
+@dataclass(frozen=True)
+class SuiteRun:
+    """One suite's run: its JSON result, where it was written, and its table for the terminal."""
+
+    result: dict[str, Any]
+    path: Path
+    table: str
+
+
+def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str, **options: object) -> SuiteRun:
+    """Run one suite and write ``out_dir/<name>.json``; SuiteUnavailable when its module is not in this build.
 
     options: passed on to the suite's ``run`` (the pipeline suite takes the orchestration ``harness``)."""
     try:
         module = importlib.import_module(SUITES[name])
     except ModuleNotFoundError as err:
-        print(f"suite {name!r} is not available in this build ({err})")
-        return 1
+        raise SuiteUnavailable(f"suite {name!r} is not available in this build ({err})") from err
     out_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     result = module.run(seeds=seeds, preset=preset, work_dir=out_dir / f"{name}_work", **options)
@@ -48,10 +63,5 @@ def run_suite(name: str, out_dir: Path, seeds: list[int], preset: str, **options
         "wall_seconds": round(time.perf_counter() - start, 3),
         **result,
     }
-    path = out_dir / f"{name}.json"
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(result, indent=2, default=float))
-    os.replace(tmp, path)
-    print(module.table(result))
-    print(f"wrote {path}")
-    return 0
+    path = write_json_atomic(out_dir / f"{name}.json", result)
+    return SuiteRun(result, path, module.table(result))

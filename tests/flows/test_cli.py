@@ -44,3 +44,22 @@ def test_run_bad_capture_exits_2(prefect_server, fake_stages, tmp_path, capsys):
     zarr.open_group(str(capture), mode="r+").attrs["format"] = "other"
     assert main(["run", str(capture), "--out", str(tmp_path / "run")]) == 2
     assert "problem(s) in the capture" in capsys.readouterr().err
+
+
+def test_bench_command_prints_the_table_and_writes_the_result(tmp_path, capsys):
+    assert main(["bench", "synth", "--out", str(tmp_path), "--seeds", "0", "--preset", "tiny"]) == 0
+    out = capsys.readouterr().out
+    result = json.loads((tmp_path / "synth.json").read_text())
+    assert result["suite"] == "synth" and result["seeds"] == [0] and "s/frame" in out
+    assert f"wrote {tmp_path / 'synth.json'}" in out
+    assert main(["bench", "nope", "--out", str(tmp_path)]) == 2
+    assert "unknown suite" in capsys.readouterr().err
+
+
+def test_pipeline_suite_needs_the_harness_the_command_line_gives_it(tmp_path):
+    import pytest
+
+    from rescene_core.bench import pipeline
+
+    with pytest.raises(ValueError, match="rescene bench pipeline"):
+        pipeline.run([0], "tiny", tmp_path)
