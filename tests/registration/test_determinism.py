@@ -6,6 +6,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import pytest
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
@@ -50,6 +51,7 @@ def _random_subset(seed: int) -> np.ndarray:
     return np.asarray(cloud.points)
 
 
+@pytest.mark.slow  # six full registrations racing a thread that draws Open3D randomness
 def test_registrations_are_unaffected_by_other_threads_drawing_open3d_randomness():
     """Open3D has one random engine per process and releases the GIL in RANSAC. Without the lock another
     thread's seed or draws land inside a RANSAC run (or between its seed and its draws) and change the
