@@ -61,7 +61,7 @@ class GeometryConfig(BaseModel):
     """Depth beyond this is not fused (m)."""
     fuse_scale: float = 0.5
     """Image scale of the depth frames that are fused (1 = full resolution)."""
-    fuse_stride: int = 2
+    fuse_stride: int = 4
     """Fuse every n-th capture camera."""
     label_radius: float = 0.05
     """A fused point takes the instance of the nearest labelled point within this distance (m), else none."""
@@ -209,20 +209,23 @@ def backproject(depth: NDArray, camera: Camera, max_step: float = 0.05) -> Point
     """World points [n, 3] of the valid pixels of a depth map float32 [H, W] (metres along camera z,
     0 = invalid) with unit normals facing the camera from the depth gradients; pixels whose right or lower
     neighbour is invalid or more than ``max_step`` times their depth away (a depth edge) are left out."""
-    depth = np.asarray(depth, np.float64)
+    depth = np.asarray(depth, np.float32)
     h, w = depth.shape
     K = camera.K
-    u = (np.arange(w) + 0.5 - K[0, 2]) / K[0, 0]
-    v = (np.arange(h) + 0.5 - K[1, 2]) / K[1, 1]
-    cam = np.stack([u[None, :] * depth, v[:, None] * depth, depth], -1)
-    dx, dy = cam[:-1, 1:] - cam[:-1, :-1], cam[1:, :-1] - cam[:-1, :-1]
-    d0 = depth[:-1, :-1]
-    ok = (d0 > 0) & (depth[:-1, 1:] > 0) & (depth[1:, :-1] > 0)
-    ok &= (np.abs(dx[..., 2]) < max_step * d0) & (np.abs(dy[..., 2]) < max_step * d0)
-    normal = np.cross(dx[ok], dy[ok])
+    u = ((np.arange(w) + 0.5 - K[0, 2]) / K[0, 0]).astype(np.float32)
+    v = ((np.arange(h) + 0.5 - K[1, 2]) / K[1, 1]).astype(np.float32)
+    d0, dr, dd = depth[:-1, :-1], depth[:-1, 1:], depth[1:, :-1]
+    ok = (d0 > 0) & (dr > 0) & (dd > 0) & (np.abs(dr - d0) < max_step * d0) & (np.abs(dd - d0) < max_step * d0)
+    rows, cols = np.nonzero(ok)
+    z, zr, zd = d0[rows, cols], dr[rows, cols], dd[rows, cols]
+    x, y = u[cols] * z, v[rows] * z
+    # tangents to the right and downwards neighbours, and their cross product
+    ax, ay, az = u[cols + 1] * zr - x, v[rows] * zr - y, zr - z
+    bx, by, bz = u[cols] * zd - x, v[rows + 1] * zd - y, zd - z
+    normal = np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], 1)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
-    pts = cam[:-1, :-1][ok]
-    normal *= np.where(np.einsum("ij,ij->i", normal, pts) > 0, -1.0, 1.0)[:, None]
+    pts = np.stack([x, y, z], 1)
+    normal *= np.where(np.einsum("ij,ij->i", normal, pts) > 0, -1.0, 1.0).astype(np.float32)[:, None]
     rot, t = camera.world_from_cam[:3, :3], camera.world_from_cam[:3, 3]
     return PointSet(pts @ rot.T + t, normal @ rot.T)
 

@@ -1,18 +1,27 @@
-"""Evaluation of a run directory: ``RUN/eval/metrics.json`` and ``RUN/eval/report.md``.
+"""Evaluation of a run directory: ``RUN/eval/metrics.json``, ``report.md`` and ``report.html``.
 
-Reads the exported scene (``scene/scene.json`` and ``scene/objects/``), computes the structural
-metrics (``rescene_core.evaluation.structural``) and, when the capture has ground truth, the metrics
-against it (``rescene_core.evaluation.ground_truth``).
+Reads the exported scene (``scene/scene.json`` and ``scene/objects/``) and the capture, and computes:
+structural metrics (``structural``), metrics against ground truth when the capture has it
+(``ground_truth``), geometry (``geometry``: against ground truth, and against the sensor's own depth
+when the capture has depth), rendering fidelity (``rendering``), the physics check's results when
+``sim/simcheck.json`` exists, and the perceptual judge when an endpoint is configured (``judge``).
+docs/evaluation.md describes the metrics.
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
 import trimesh
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict
 
+from rescene_core.evaluation.geometry import GeometryConfig
+from rescene_core.evaluation.judge import JudgeConfig
+from rescene_core.evaluation.rendering import RenderingConfig
 from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, RoomShell, SceneGraph
@@ -33,50 +42,198 @@ def load_scene(run_dir: str | Path) -> dict[str, Any]:
     return doc
 
 
-def evaluate_run(run_dir: str | Path, capture: str | Path | None = None) -> dict[str, Any]:
-    """Compute and write the metrics of a run; returns them. ``capture`` defaults to the one in scene.json."""
+class EvaluationConfig(BaseModel):
+    """What the evaluation of a run computes, and how."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
+
+    geometry: GeometryConfig = GeometryConfig()
+    """Geometry metrics (evaluation/geometry.py)."""
+    rendering: RenderingConfig = RenderingConfig()
+    """Rendering fidelity (evaluation/rendering.py)."""
+    judge: JudgeConfig = JudgeConfig()
+    """Perceptual judge (evaluation/judge.py); off unless an endpoint is configured."""
+    html: bool = True
+    """Write eval/report.html (evaluation/report_html.py)."""
+
+
+def _capture_path(run_dir: Path, doc: dict[str, Any] | None) -> str | None:
+    if doc and doc.get("capture"):
+        return str(doc["capture"])
+    manifest = RunPaths(run_dir).manifest
+    if manifest.exists():
+        cap = read_json(manifest).get("capture")
+        if isinstance(cap, dict) and cap.get("path"):
+            return str(cap["path"])
+    return None
+
+
+def placed_meshes(doc: dict[str, Any]) -> dict[int, tuple[str, trimesh.Trimesh]]:
+    """Instance id -> (label, mesh in the world frame at its final pose) of a loaded scene.json."""
+    out = {}
+    for o in doc["objects"]:
+        m = np.asarray(o["world_from_asset"], np.float64)
+        verts = np.asarray(o["vertices"]) @ m[:3, :3].T + m[:3, 3]
+        out[int(o["instance"])] = (o["label"], trimesh.Trimesh(verts, np.asarray(o["faces"]), process=False))
+    return out
+
+
+def evaluate_run(
+    run_dir: str | Path,
+    capture: str | Path | None = None,
+    config: EvaluationConfig | None = None,
+) -> dict[str, Any]:
+    """Compute and write the metrics of a run; returns them. ``capture`` defaults to the one in scene.json
+    (or manifest.json).
+
+    Every metric that the run's files allow is computed; the others are listed under ``not_computed``
+    with the reason (no exported scene, no capture, no depth, no ground truth, no key frames, judge off
+    or down). Writes RUN/eval/metrics.json, report.md and (``config.html``) report.html.
+    Raises FileNotFoundError when neither the scene nor the capture can be found.
+    """
     from rescene_core.capture import open_capture
     from rescene_core.capture.ground_truth import read_ground_truth
 
+    config = config or EvaluationConfig()
     run_dir = Path(run_dir)
-    doc = load_scene(run_dir)
-    capture = capture or doc.get("capture")
-    graph = SceneGraph.from_json(doc["graph"])
-    shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
-    final = {int(o["instance"]): np.asarray(o["world_from_asset"]) for o in doc["objects"]}
-    registered = {
-        int(o["instance"]): np.asarray(o["registered_world_from_asset"])
-        for o in doc["objects"]
-        if o.get("registered_world_from_asset") is not None
+    started = time.perf_counter()
+    timings: dict[str, float] = {}
+    not_computed: dict[str, str] = {}
+    try:
+        doc: dict[str, Any] | None = load_scene(run_dir)
+    except FileNotFoundError as err:
+        doc = None
+        reason = f"no exported scene ({err})"
+        for key in ("structural", "geometry", "rendering", "judge"):
+            not_computed[key] = reason
+    capture = capture or _capture_path(run_dir, doc)
+    if doc is None and capture is None:
+        raise FileNotFoundError(
+            f"{run_dir} has neither scene/scene.json nor a capture in manifest.json; nothing to evaluate "
+            "(run `rescene run CAPTURE --out RUN` first)"
+        )
+    metrics: dict[str, Any] = {
+        "run_dir": str(run_dir),
+        "capture": None if capture is None else str(capture),
+        "objects": len(doc["objects"]) if doc else 0,
+        "missing": len(doc.get("missing", [])) if doc else None,
+        "missing_records": doc.get("missing", []) if doc else [],
     }
-    metrics: dict[str, Any] = {"run_dir": str(run_dir), "capture": str(capture), "objects": len(doc["objects"])}
-    metrics["missing"] = len(doc.get("missing", []))
+    cap = None
+    if capture is None:
+        not_computed["capture"] = "the run names no capture"
+    elif not Path(capture).exists():
+        not_computed["capture"] = f"the capture {capture} does not exist (moved or deleted)"
+    else:
+        try:
+            cap = open_capture(capture, validate=False)
+        except Exception as err:  # an unreadable capture must not cost the structural metrics
+            not_computed["capture"] = f"the capture {capture} cannot be read: {err}"
+    if cap is None:
+        for key in ("ground_truth", "geometry", "rendering"):
+            not_computed.setdefault(key, not_computed["capture"])
 
-    if shell is not None and doc["objects"]:
-        from rescene_core.assembly import AssemblyObject
-        from rescene_core.evaluation.structural import structural_metrics
-
-        objs = {
-            int(o["instance"]): AssemblyObject(
-                InstanceId(int(o["instance"])),
-                o["label"],
-                o["vertices"],
-                o["faces"],
-                registered.get(int(o["instance"]), final[int(o["instance"])]),
-            )
+    graph = shell = None
+    final: dict[int, NDArray] = {}
+    registered: dict[int, NDArray] = {}
+    if doc is not None:
+        graph = SceneGraph.from_json(doc["graph"])
+        shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
+        final = {int(o["instance"]): np.asarray(o["world_from_asset"]) for o in doc["objects"]}
+        registered = {
+            int(o["instance"]): np.asarray(o["registered_world_from_asset"])
             for o in doc["objects"]
+            if o.get("registered_world_from_asset") is not None
         }
-        metrics["structural"] = structural_metrics(objs, final, graph, shell, registered=registered or None)
+        t0 = time.perf_counter()
+        if shell is None:
+            not_computed["structural"] = "scene.json has no room shell"
+        elif not doc["objects"]:
+            not_computed["structural"] = "the run placed no object"
+        else:
+            from rescene_core.assembly import AssemblyObject
+            from rescene_core.evaluation.structural import structural_metrics
 
-    gt = read_ground_truth(open_capture(capture, validate=False)) if capture else None
-    if gt is not None:
-        from rescene_core.evaluation.ground_truth import gt_metrics
+            objs = {
+                int(o["instance"]): AssemblyObject(
+                    InstanceId(int(o["instance"])),
+                    o["label"],
+                    o["vertices"],
+                    o["faces"],
+                    registered.get(int(o["instance"]), final[int(o["instance"])]),
+                )
+                for o in doc["objects"]
+            }
+            metrics["structural"] = structural_metrics(objs, final, graph, shell, registered=registered or None)
+        timings["structural"] = time.perf_counter() - t0
 
-        objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
-        metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
+    gt = None
+    if cap is not None:
+        gt = read_ground_truth(cap)
+        if gt is None:
+            not_computed["ground_truth"] = "the capture has no ground truth (gt/ group)"
+        elif doc is not None:
+            from rescene_core.evaluation.ground_truth import gt_metrics
+
+            t0 = time.perf_counter()
+            objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
+            metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
+            timings["ground_truth"] = time.perf_counter() - t0
+
+    placed = placed_meshes(doc) if doc is not None else {}
+    shell_geometry = {}
+    if shell is not None:
+        from rescene_core.export import ExportConfig, shell_meshes
+
+        shell_geometry = shell_meshes(shell, ExportConfig())
+    if cap is not None and doc is not None:
+        from rescene_core.evaluation.geometry import geometry_metrics
+        from rescene_core.evaluation.rendering import rendering_metrics
+
+        t0 = time.perf_counter()
+        metrics["geometry"] = geometry_metrics(placed, shell_geometry, cap, gt, config.geometry)
+        timings["geometry"] = time.perf_counter() - t0
+        key_frames = None
+        kf_path = RunPaths(run_dir).keyframes
+        if kf_path.exists():
+            key_frames = [int(t) for t in read_json(kf_path).get("frames", [])]
+        else:
+            not_computed["key_frames"] = "no keyframes.json: rendering is compared on every frame"
+        t0 = time.perf_counter()
+        metrics["rendering"] = rendering_metrics(placed, shell_geometry, cap, key_frames, config.rendering)
+        timings["rendering"] = time.perf_counter() - t0
+
+    physics = RunPaths(run_dir).simcheck
+    if physics.exists():
+        try:
+            metrics["physics"] = read_json(physics)
+        except ValueError as err:
+            not_computed["physics"] = f"{physics} is not valid JSON: {err}"
+    else:
+        not_computed["physics"] = "no sim/simcheck.json (run `rescene simcheck RUN`)"
+
+    if doc is not None and cap is not None:
+        from rescene_core.evaluation.judge import judge_run
+
+        t0 = time.perf_counter()
+        metrics["judge"] = judge_run(run_dir, placed, shell_geometry, cap, config.judge)
+        timings["judge"] = time.perf_counter() - t0
+    for section in ("geometry", "rendering"):
+        for key, reason in metrics.get(section, {}).get("not_computed", {}).items():
+            not_computed[f"{section}.{key}"] = reason
+    judge = metrics.get("judge", {})
+    if judge.get("status") != "ok":
+        not_computed["judge"] = judge.get("reason", not_computed.get("judge", "not run"))
+    timings["total_excluding_judge"] = time.perf_counter() - started - timings.get("judge", 0.0)
+    metrics["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
+    metrics["not_computed"] = not_computed
     metrics["summary"] = _summary(metrics)
     write_json_atomic(RunPaths(run_dir).metrics, metrics)
     write_bytes_atomic(RunPaths(run_dir).report_md, report(metrics).encode())
+    if config.html:
+        from rescene_core.evaluation.report_html import write_report_html
+
+        write_report_html(run_dir, metrics)
     return metrics
 
 
@@ -97,6 +254,23 @@ def _summary(metrics: dict[str, Any]) -> dict[str, Any]:
             out[key] = gt[key]
         for key in ("edge_accuracy", "edge_precision"):
             out[f"graph_{key}"] = gt["graph"][key]
+    geo = metrics.get("geometry", {})
+    for ref, modes in (("ground_truth", ("sampled", "refused")), ("sensor", ("objects_refused", "all_refused"))):
+        for mode in modes:
+            m = geo.get(ref, {}).get(mode)
+            if m:
+                for key in ("chamfer", "fscore@5cm", "normal_consistency"):
+                    out[f"geometry_{ref}_{mode}_{key}"] = m[key]
+    ren = metrics.get("rendering", {})
+    for key in ("psnr_masked", "ssim_masked", "psnr", "ssim", "lpips", "mask_iou_mean_placed"):
+        if key in ren:
+            out[f"rendering_{key}"] = ren[key]
+    for key, value in (ren.get("depth") or {}).items():
+        if key in ("abs_rel", "rmse", "delta_1.25"):
+            out[f"rendering_depth_{key}"] = value
+    judge = metrics.get("judge", {})
+    for axis, value in (judge.get("scores") or {}).items():
+        out[f"judge_{axis}"] = value
     return out
 
 
@@ -125,6 +299,36 @@ def report(metrics: dict[str, Any]) -> str:
             )
         lines += ["", "## Scene graph", ""]
         lines += [f"- {k}: {_fmt(v)}" for k, v in gt["graph"].items()]
+    geo = metrics.get("geometry", {})
+    for ref in ("ground_truth", "sensor"):
+        rows = geo.get(ref, {}).get("per_object")
+        if not rows:
+            continue
+        lines += [
+            "",
+            f"## Geometry per object (against {'ground truth' if ref == 'ground_truth' else 'the sensor'})",
+            "",
+        ]
+        lines += ["| instance | label | mode | CD (m) | F@5cm | NC |", "|---|---|---|---|---|---|"]
+        for r in rows:
+            for mode in ("sampled", "refused"):
+                m = r.get(mode)
+                if m:
+                    lines.append(
+                        f"| {r['instance']} | {r['label']} | {mode} | {_fmt(m['chamfer'])} | "
+                        f"{_fmt(m['fscore@5cm'])} | {_fmt(m['normal_consistency'])} |"
+                    )
+    ren = metrics.get("rendering", {})
+    if ren.get("per_object"):
+        lines += ["", "## Instance-mask IoU (rendered vs captured, non-key frames)", ""]
+        lines += ["| instance | label | placed | IoU |", "|---|---|---|---|"]
+        lines += [f"| {r['instance']} | {r['label']} | {r['placed']} | {_fmt(r['iou'])} |" for r in ren["per_object"]]
+    if metrics.get("not_computed"):
+        lines += ["", "## Not computed", ""]
+        lines += [f"- {k}: {v}" for k, v in metrics["not_computed"].items()]
+    if metrics.get("timings_s"):
+        lines += ["", "## Time (s)", ""]
+        lines += [f"- {k}: {v}" for k, v in metrics["timings_s"].items()]
     return "\n".join(lines) + "\n"
 
 
@@ -133,4 +337,4 @@ def format_metrics(metrics: dict[str, Any]) -> str:
     return "\n".join(f"{k:34s} {_fmt(v)}" for k, v in metrics["summary"].items())
 
 
-__all__ = ["evaluate_run", "format_metrics", "load_scene", "report"]
+__all__ = ["EvaluationConfig", "evaluate_run", "format_metrics", "load_scene", "placed_meshes", "report"]
