@@ -15,7 +15,7 @@ PREFECT_API_URL ?= http://127.0.0.1:4200/api
 POOL ?= rescene-local
 
 .DEFAULT_GOAL := help
-.PHONY: help setup system-deps demo test test-fast typecheck check lint format bench server worker deploy clean
+.PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server worker deploy clean
 
 help: ## list the targets
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -41,6 +41,13 @@ setup: $(STAMP) ## create .venv and install ReScene with its CPU dependencies
 
 demo: $(STAMP) ## synthetic standard capture -> the rescene flow -> where to look
 	$(RESCENE) demo --out $(DEMO_DIR) --preset $(PRESET) --seed $(SEED)
+
+REAL_SRC ?= ../shared/data/hololens-000
+REAL_DIR ?= $(DEMO_DIR)/real
+demo-real: $(STAMP) ## real RGB-D sample -> label-free import (pictures) -> the rescene flow
+	$(RESCENE) import rgbd $(REAL_SRC) $(REAL_DIR)/hololens-000.zarr --segment geometric --pictures --overwrite
+	PREFECT_SERVER_ANALYTICS_ENABLED=false $(RESCENE) run $(REAL_DIR)/hololens-000.zarr --out $(REAL_DIR)/run
+	@echo "pictures: $(REAL_DIR)/hololens-000_contact.png (segments over frames), $(REAL_DIR)/hololens-000_plan.png; run: $(REAL_DIR)/run"
 
 test: $(STAMP) ## run the whole test suite, slow tests included (what CI runs), with the 15 slowest listed
 	PREFECT_SERVER_ANALYTICS_ENABLED=false $(PY) -m pytest --durations=15

@@ -62,6 +62,11 @@ def _cmd_import(args: argparse.Namespace) -> int:
     for note in report["notes"]:
         print(f"note: {note}")
     print(f"report: {report_path(args.out)}")
+    if args.pictures:
+        from rescene_core.capture.importers.pictures import write_pictures
+
+        for what, path in write_pictures(args.out).items():
+            print(f"picture ({what.replace('_', ' ')}): {path}")
     return 0
 
 
@@ -89,4 +94,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base", choices=["rgbd", "scannet", "nerfstudio"], help="panoptic: the layout of the frames")
     p.add_argument("--scene-id", help="name of the scene (default: the source folder's name)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing capture")
+    p.add_argument("--pictures", action="store_true", help="also write the segments over frames and a plan")
     p.set_defaults(func=_cmd_import)
