@@ -1,0 +1,92 @@
+"""The in-process pipeline (rescene_core/pipeline.py) and the pipeline benchmark suite around it, with the
+stage doubles of tests/flows/fakes.py on the hand-made box capture."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from rescene_core import pipeline
+from rescene_core.bench import pipeline as suite
+from rescene_core.records import InstanceId, Missing, Stage
+from rescene_core.runlog import Segment, merge_segments
+from tests.flows import fakes
+
+
+@pytest.fixture
+def fake_library(monkeypatch):
+    for name in ("estimate_shell", "select_keyframes", "generate_asset", "register", "make_predictor",
+                 "predict_frame", "fuse", "attach"):  # fmt: skip
+        monkeypatch.setattr(pipeline, name, getattr(fakes, name))
+    monkeypatch.setattr(pipeline, "select_views", lambda cap, config, instance_ids: fakes.select_views(
+        cap, config, instance_ids))  # fmt: skip
+    fakes.CALLS.clear()
+    return fakes.CALLS
+
+
+@pytest.fixture(scope="module")
+def boxes(tmp_path_factory):
+    return fakes.box_capture(tmp_path_factory.mktemp("capture") / "boxes.zarr")
+
+
+def test_every_stage_runs_once_in_order_and_the_scene_is_exported(fake_library, boxes, tmp_path):
+    result = pipeline.run_pipeline(boxes, out_dir=tmp_path)
+    assert dict(fake_library) == {"shell": 1, "view": 1, "asset": 3, "registration": 3, "keyframes": 1,
+                                  "relations": 2, "fusion": 1, "attachment": 1}  # fmt: skip
+    assert sorted(result.poses) == [2, 3, 4] and result.missing == () and result.metrics is None
+    assert set(result.seconds) == {Stage.SHELL, Stage.VIEW, Stage.ASSET, Stage.REGISTRATION, Stage.KEYFRAMES,
+                                   Stage.RELATIONS, Stage.FUSION, Stage.ATTACHMENT, Stage.EXPORT}  # fmt: skip
+    scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
+    assert [o["instance"] for o in scene["objects"]] == [2, 3, 4]
+
+
+def test_a_missing_instance_is_left_out_and_reported(fake_library, boxes, monkeypatch, tmp_path):
+    monkeypatch.setattr(pipeline, "register", lambda asset, target, config: (
+        Missing(asset.instance, "registration", "gates") if asset.instance == 3 else fakes.register(
+            asset, target, config)))  # fmt: skip
+    result = pipeline.run_pipeline(boxes, out_dir=tmp_path)
+    assert sorted(result.poses) == [2, 4]
+    assert result.missing == (Missing(InstanceId(3), Stage.REGISTRATION, "gates"),)
+    assert [e.child for e in result.graph.edges] == [2, 4]  # fusion was told
+
+
+class FakeHarness:
+    """Writes a run log as the flow would, so the suite can read per-stage task times from it."""
+
+    def __init__(self) -> None:
+        self.started = False
+        self.runs: list[Path] = []
+
+    def start(self) -> None:
+        self.started = True
+
+    def run(self, capture: Path, run_dir: Path):
+        self.runs.append(run_dir)
+        seg = Segment(run_dir, "registration-000002")
+        seg.log("/task/events", {"stage": "registration", "item": 2, "event": "start", "seconds": 0.0})
+        seg.log("/task/events", {"stage": "registration", "item": 2, "event": "end", "seconds": 0.25})
+        seg.close()
+        merge_segments(run_dir)
+
+        class State:
+            name, message = "Completed", None
+
+        return State()
+
+
+def test_the_suite_times_the_flow_twice_and_the_library_once(fake_library, boxes, monkeypatch, tmp_path):
+    monkeypatch.setattr(suite, "_capture", lambda work_dir, preset, seed: boxes)
+    harness = FakeHarness()
+    result = suite.run([0], "tiny", tmp_path, harness=harness)
+    (row,) = result["runs"]
+    assert harness.started and harness.runs == [tmp_path / "run_tiny_seed0"] * 2
+    assert row["state_cold"] == row["state_cached"] == "Completed"
+    assert row["stage_seconds_flow"] == {"registration": 0.25}
+    assert set(row["stage_seconds_library"]) >= {"shell", "registration", "export"}
+    assert row["seconds_library"] > 0 and row["overhead_ratio"] > 0 and row["cached_fraction"] > 0
+    assert result["summary"]["seconds_cold"] == row["seconds_cold"] and set(result["aims_met"]) == {
+        "overhead_ratio", "seconds_cached", "seconds_cold"}  # fmt: skip
+    text = suite.table({**result, "preset": "tiny", "seeds": [0]})
+    assert "registration" in text and "aims:" in text
