@@ -14,6 +14,7 @@ import numpy as np
 
 from rescene_core.capture import open_capture
 from rescene_core.config import AssetConfig, HierViewConfig, RegistrationConfig
+from rescene_core.geometry import sim3
 from rescene_core.io import hash_file, read_json, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import Asset, InstanceId, Missing, Ref, Stage, ViewChoice
@@ -131,7 +132,7 @@ def register_instance(run_dir: str, capture: Ref, asset: Ref, config: Registrati
                 "diagnostics": pose.diagnostics,
             },
         )
-        scale = float(np.cbrt(abs(np.linalg.det(np.asarray(pose.world_from_asset)[:3, :3]))))
+        scale = sim3.scale_of(pose.world_from_asset)
         numbers = {"scale": scale}
         for key in ("rmse", "inlier_ratio", "fitness"):
             if isinstance(pose.diagnostics.get(key), int | float):

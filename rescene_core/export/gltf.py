@@ -28,6 +28,8 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
+from rescene_core.geometry import sim3
+
 ROOT_NODE = "world_z_up"
 """Name of the root node of scene.glb that rotates the z-up world into glTF's +Y-up frame."""
 YUP_FROM_ZUP_QUAT_XYZW = (-float(np.sqrt(0.5)), 0.0, 0.0, float(np.sqrt(0.5)))
@@ -77,7 +79,7 @@ def trs_from_matrix(matrix: np.ndarray) -> dict[str, list[float]]:
     """
     m = np.asarray(matrix, dtype=np.float64)
     linear = m[:3, :3]
-    scale = float(np.cbrt(abs(np.linalg.det(linear)))) or 1.0
+    scale = sim3.scale_of(linear) or 1.0
     u, _, vt = np.linalg.svd(linear / scale)
     rot = u @ vt
     if np.linalg.det(rot) < 0:

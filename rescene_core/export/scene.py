@@ -20,6 +20,7 @@ from rescene_core.config import ExportConfig
 from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
+from rescene_core.geometry import sim3
 from rescene_core.io import hash_file, hash_tree, write_bytes_atomic
 from rescene_core.records import Missing, RoomShell, Root, SceneGraph, parent_to_json
 
@@ -138,7 +139,7 @@ def export_scene(
                 "node": obj.node_name,
                 "mesh": rel,
                 "world_from_asset": m.tolist(),
-                "scale": float(np.cbrt(abs(np.linalg.det(m[:3, :3])))),
+                "scale": sim3.scale_of(m),
                 "registered_world_from_asset": None
                 if obj.registered_world_from_asset is None
                 else np.asarray(obj.registered_world_from_asset).tolist(),

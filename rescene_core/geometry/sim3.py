@@ -48,6 +48,11 @@ def sim3_from_parts(scale: float, rotation: NDArray[np.float64], translation: ND
     return m
 
 
+def scale_of(m: NDArray) -> float:
+    """Uniform scale of a 4x4 (or 3x3) transform: the cube root of |det| of its linear part (0 when singular)."""
+    return float(np.cbrt(abs(np.linalg.det(np.asarray(m, dtype=np.float64)[:3, :3]))))
+
+
 def parts_from_sim3(m: Matrix4) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
     """Split a Sim(3) matrix into (scale, rotation [3, 3], translation [3])."""
     m = np.asarray(m, dtype=np.float64)

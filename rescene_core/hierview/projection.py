@@ -12,31 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from rescene_core.geometry.camera import project_to_pixels
 
-def project_to_pixels(
-    points_world: NDArray[np.float32],
-    K: NDArray[np.float64],
-    world_from_cam: NDArray[np.float64],
-    width: int,
-    height: int,
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
-    """Pixel (column, row) of world points [n, 3] in a pinhole camera (OpenCV axes).
-
-    Returns (col [n], row [n], valid [n]); valid means finite, in front of the camera (z > 0) and inside
-    the image. col/row are 0 where not valid.
-    """
-    rot = np.asarray(world_from_cam[:3, :3], dtype=np.float32)
-    centre = np.asarray(world_from_cam[:3, 3], dtype=np.float32)
-    # cam_from_world = [R^T, -R^T c]; (p - c) @ R gives camera coordinates without forming the inverse.
-    cam = (points_world - centre) @ rot
-    z = cam[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = cam[:, 0] / z * np.float32(K[0, 0]) + np.float32(K[0, 2])
-        v = cam[:, 1] / z * np.float32(K[1, 1]) + np.float32(K[1, 2])
-    valid = (z > 0) & np.isfinite(u) & np.isfinite(v) & (u >= 0) & (u < width) & (v >= 0) & (v < height)
-    col = np.where(valid, u, 0).astype(np.int64)
-    row = np.where(valid, v, 0).astype(np.int64)
-    return col, row, valid
+__all__ = ["LabelTable", "project_to_pixels"]
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from rescene_core.geometry import sim3
 from rescene_core.records import RoomShell
 
 _VEC3 = {
@@ -173,7 +174,7 @@ def object_entity(obj: SceneObject, ns: int) -> dict[str, Any]:
     if len(verts) and len(obj.faces):
         ent["triangles"].append(_triangles(world, obj.faces, color))
     if len(verts):
-        scale = float(np.cbrt(abs(np.linalg.det(m[:3, :3])))) or 1.0
+        scale = sim3.scale_of(m) or 1.0
         rot = m[:3, :3] / scale
         lo, hi = verts.min(axis=0), verts.max(axis=0)
         centre = m[:3, :3] @ ((lo + hi) / 2) + m[:3, 3]

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.geometry.camera import intrinsics_from_fov, look_at
 from rescene_core.records import Camera
 from rescene_core.render import Light, RenderedFrame, Renderer, RenderMesh, Shading, Texture
 from rescene_core.vqa.config import VqaConfig
@@ -89,30 +90,9 @@ class Viewpoint:
         )
 
 
-def look_at(eye: NDArray, target: NDArray) -> NDArray[np.float64]:
-    """world_from_cam [4, 4] of a camera at ``eye`` [3] looking at ``target`` [3], OpenCV axes, no roll
-    (camera x stays horizontal; world z up)."""
-    eye = np.asarray(eye, np.float64)
-    forward = np.asarray(target, np.float64) - eye
-    norm = np.linalg.norm(forward)
-    if norm < 1e-9:
-        raise ValueError("look_at: eye and target coincide")
-    forward /= norm
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    if np.linalg.norm(right) < 1e-9:
-        raise ValueError("look_at: looking straight up or down has no defined yaw")
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    out = np.eye(4)
-    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = right, down, forward, eye
-    return out
-
-
 def intrinsics(config: VqaConfig) -> NDArray[np.float64]:
     """Pinhole K [3, 3] (pixels) of the rendered views: square pixels, principal point at the centre."""
-    w, h = config.image_width, config.image_height
-    f = (w / 2.0) / np.tan(np.radians(config.hfov_deg) / 2.0)
-    return np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
+    return intrinsics_from_fov(config.image_width, config.image_height, config.hfov_deg)
 
 
 def _label_color(label: str) -> tuple[float, float, float]:

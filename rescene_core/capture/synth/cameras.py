@@ -13,6 +13,7 @@ from shapely.prepared import prep
 
 from rescene_core.capture.synth.layout import Layout
 from rescene_core.capture.synth.presets import SynthPreset
+from rescene_core.geometry.camera import intrinsics_from_fov, look_at
 from rescene_core.records import Relation, Root
 
 CLOSEUP_LABELS = frozenset({"bed", "sofa", "wardrobe", "dining table", "desk", "chair", "cabinet", "bookshelf"})
@@ -34,26 +35,7 @@ class CameraPlan:
 
 
 def intrinsics(preset: SynthPreset) -> NDArray[np.float64]:
-    f = preset.width / 2 / np.tan(np.radians(preset.hfov_deg) / 2)
-    return np.array([[f, 0, preset.width / 2], [0, f, preset.height / 2], [0, 0, 1.0]])
-
-
-def look_at(eye: NDArray, target: NDArray, roll: float = 0.0) -> NDArray[np.float64]:
-    """world_from_cam (OpenCV axes: x right, y down, z forward) of a camera at ``eye`` looking at ``target``."""
-    z = np.asarray(target, float) - np.asarray(eye, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    if np.linalg.norm(x) < 1e-6:
-        x = np.array([1.0, 0.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    if roll:
-        c, s = np.cos(roll), np.sin(roll)
-        x, y = c * x + s * y, -s * x + c * y
-    out = np.eye(4)
-    out[:3, :3] = np.stack([x, y, z], axis=1)
-    out[:3, 3] = eye
-    return out
+    return intrinsics_from_fov(preset.width, preset.height, preset.hfov_deg)
 
 
 def _inside_object(lay: Layout, p: NDArray, margin: float) -> bool:
@@ -130,7 +112,7 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
         pitch = np.radians(-14 + rng.normal(0, 5))
         eye = np.array([p[0], p[1], h])
         fwd = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), np.sin(pitch)])
-        poses.append(look_at(eye, eye + fwd, rng.normal(0, 0.03)))
+        poses.append(look_at(eye, eye + fwd, rng.normal(0, 0.03), strict=False))
         kinds.append("walk")
         targets.append(0)
         walk_s.append(s)
@@ -154,7 +136,7 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
         eye[2] = float(np.clip(eye[2], 0.5, room.height - 0.3))
         if not inner.contains(Point(eye[0], eye[1])) or _inside_object(lay, eye, 0.08):
             continue
-        poses.append(look_at(eye, target, rng.normal(0, 0.03)))
+        poses.append(look_at(eye, target, rng.normal(0, 0.03), strict=False))
         kinds.append("closeup")
         targets.append(obj.object_id)
         made += 1
@@ -169,7 +151,7 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
             continue
         far = centre + (centre - c) * rng.uniform(0.0, 0.6)
         target = np.array([far[0], far[1], rng.uniform(0.4, 0.9)])
-        poses.append(look_at(eye, target, rng.normal(0, 0.02)))
+        poses.append(look_at(eye, target, rng.normal(0, 0.02), strict=False))
         kinds.append("distant")
         targets.append(0)
         made += 1
@@ -179,7 +161,7 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
         s = float(rng.uniform(0, 1))
         p = np.array(ring.interpolate(s, normalized=True).coords[0])
         eye = np.array([p[0], p[1], float(rng.uniform(*preset.walk_height))])
-        poses.append(look_at(eye, np.array([centre[0], centre[1], 0.8])))
+        poses.append(look_at(eye, np.array([centre[0], centre[1], 0.8]), strict=False))
         kinds.append("walk")
         targets.append(0)
         walk_s.append(s)
