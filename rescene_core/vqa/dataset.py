@@ -149,20 +149,3 @@ def evaluate_answers(
     total = sum(r["total"] for r in per.values())
     overall = {"correct": correct, "total": total, "accuracy": correct / total if total else None}
     return {"per_category": per, "overall": overall, "unanswered": unanswered}
-
-
-def vqa_command(run: Path, out: Path | None = None, views: int | None = None, seed: int | None = None) -> int:
-    """`rescene vqa RUN [--out DIR] [--views N] [--seed S]`: writes the data set and prints its counts."""
-    overrides: dict[str, Any] = {}
-    if views is not None:
-        overrides["views"] = views
-    if seed is not None:
-        overrides["seed"] = seed
-    config = VqaConfig(**overrides)
-    out_dir = Path(run) / "vqa" if out is None else Path(out)
-    summary = vqa_for_run(run, out_dir, config)
-    print(f"{summary['questions']} questions, {len(summary['views'])} views ({summary['render_backend']}) -> {out_dir}")
-    for cat, n in summary["counts"].items():
-        dropped = sum(summary["filtered"][cat].values())
-        print(f"  {cat:<22} {n:>4} kept  {summary['candidates'][cat]:>5} candidates  {dropped:>5} filtered")
-    return 0

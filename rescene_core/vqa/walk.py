@@ -12,7 +12,8 @@ eye height ``walk_eye_height`` above the floor, with a random yaw and a level ga
 
 After each action the agent captures a view: the project's ray-casting renderer gives the RGB image and
 the id buffer, and every object covering at least ``min_visible_pixels`` is visible (the first hit of each
-ray, so occluded parts do not count). A capture that sees no object is not kept. Deterministic for a seed.
+ray, so occluded parts do not count). A capture that sees no object is not kept; a walk that sees nothing starts again (``WALK_RESTARTS``).
+Deterministic for a seed.
 """
 
 from __future__ import annotations
@@ -30,6 +31,9 @@ from rescene_core.vqa.scene import VqaInputError, VqaScene
 
 ACTIONS = ("forward", "turn_left", "turn_right", "look_up", "look_down")
 """The agent's discrete actions (a blocked forward move becomes a turn and is recorded as ``blocked``)."""
+WALK_RESTARTS = 3
+"""A walk none of whose captures sees an object (e.g. it started facing a wall) starts again from a new
+random pose, at most this many times."""
 
 
 @dataclass(frozen=True)
@@ -115,27 +119,47 @@ def walk_viewpoints(
     views: list[Viewpoint] = []
     frames: dict[int, RenderedFrame] = {}
     for walk in range(config.walks):
-        pose = random_start(scene, config, free, rng)
-        actions = [ACTIONS[int(k)] for k in rng.choice(len(ACTIONS), size=config.walk_steps, p=probs)]
-        for k, action in enumerate(actions):
-            pose, done = step(pose, action, config, free, rng)
-            camera = Camera(K, pose.world_from_cam(), config.image_width, config.image_height)
-            frame = renderer.render(camera)
-            visible = visible_objects(frame.ids, config.min_visible_pixels)
-            if not visible:
-                continue
-            h, w = frame.ids.shape
-            centre_id = max(int(frame.ids[h // 2, w // 2]), 0)
-            ids, counts = np.unique(frame.ids[frame.ids > 0], return_counts=True)
-            faint = {int(i): int(n) for i, n in zip(ids, counts, strict=True) if n < config.min_visible_pixels}
-            agent = {
-                "walk": walk,
-                "step": k,
-                "action": done,
-                "yaw_deg": round(pose.yaw_deg, 3),
-                "pitch_deg": round(pose.pitch_deg, 3),
-            }
-            vp = Viewpoint(f"view_{len(views):03d}", centre_id, camera, visible, centre_id, faint=faint, agent=agent)
-            frames[len(views)] = frame
-            views.append(vp)
+        for _restart in range(WALK_RESTARTS + 1):
+            kept = len(views)
+            _one_walk(scene, config, renderer, rng, free, K, probs, walk, views, frames)
+            if len(views) > kept:
+                break
     return views, frames
+
+
+def _one_walk(
+    scene: VqaScene,
+    config: VqaConfig,
+    renderer: Renderer,
+    rng: np.random.Generator,
+    free,
+    K: NDArray[np.float64],
+    probs: NDArray[np.float64],
+    walk: int,
+    views: list[Viewpoint],
+    frames: dict[int, RenderedFrame],
+) -> None:
+    """One walk from a random start; appends its captures that see an object to ``views`` and ``frames``."""
+    pose = random_start(scene, config, free, rng)
+    actions = [ACTIONS[int(k)] for k in rng.choice(len(ACTIONS), size=config.walk_steps, p=probs)]
+    for k, action in enumerate(actions):
+        pose, done = step(pose, action, config, free, rng)
+        camera = Camera(K, pose.world_from_cam(), config.image_width, config.image_height)
+        frame = renderer.render(camera)
+        visible = visible_objects(frame.ids, config.min_visible_pixels)
+        if not visible:
+            continue
+        h, w = frame.ids.shape
+        centre_id = max(int(frame.ids[h // 2, w // 2]), 0)
+        ids, counts = np.unique(frame.ids[frame.ids > 0], return_counts=True)
+        faint = {int(i): int(n) for i, n in zip(ids, counts, strict=True) if n < config.min_visible_pixels}
+        agent = {
+            "walk": walk,
+            "step": k,
+            "action": done,
+            "yaw_deg": round(pose.yaw_deg, 3),
+            "pitch_deg": round(pose.pitch_deg, 3),
+        }
+        vp = Viewpoint(f"view_{len(views):03d}", centre_id, camera, visible, centre_id, faint=faint, agent=agent)
+        frames[len(views)] = frame
+        views.append(vp)
