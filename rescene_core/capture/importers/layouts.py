@@ -147,3 +147,40 @@ def write_scannet(
 
 WRITERS = {"rgbd": write_rgbd, "panoptic": write_panoptic, "nerfstudio": write_nerfstudio, "scannet": write_scannet}
 """Layout name -> writer ``(arrays, dest, source_from_world=None) -> dest``."""
+
+
+def write_scannet_mesh_annotation(scene, dest: str | Path, name: str = "scene0000_00") -> dict[int, int]:
+    """ScanNet's 3D annotation of a synthetic scene: ``<name>_vh_clean_2.ply`` (the objects' meshes and a
+    floor), ``<name>.aggregation.json`` and ``<name>_vh_clean_2.0.010000.segs.json``. One segment per
+    object; objectId = instance id - 1. Returns {ground-truth object id: instance id}."""
+    import trimesh
+
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    verts, faces, seg_idx, groups, by_object = [], [], [], [], {}
+    off = 0
+    for o in scene.gt.objects:
+        if not o.instance_ids:
+            continue
+        iid = int(o.instance_ids[0])
+        v = o.world_vertices()
+        verts.append(v)
+        faces.append(np.asarray(o.faces) + off)
+        seg_idx += [iid] * len(v)
+        groups.append({"id": iid - 1, "objectId": iid - 1, "label": o.label, "segments": [iid]})
+        by_object[int(o.object_id)] = iid
+        off += len(v)
+    x0, y0, x1, y1 = (
+        np.asarray(scene.gt.shell.floor_polygon).min(0).tolist()
+        + np.asarray(scene.gt.shell.floor_polygon).max(0).tolist()
+    )
+    floor_id = max(by_object.values(), default=0) + 1
+    verts.append(np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]]))
+    faces.append(np.array([[0, 1, 2], [0, 2, 3]]) + off)
+    seg_idx += [floor_id] * 4
+    groups.append({"id": floor_id - 1, "objectId": floor_id - 1, "label": "floor", "segments": [floor_id]})
+    mesh = trimesh.Trimesh(np.concatenate(verts), np.concatenate(faces), process=False)
+    mesh.export(dest / f"{name}_vh_clean_2.ply")
+    (dest / f"{name}.aggregation.json").write_text(json.dumps({"sceneId": name, "segGroups": groups}))
+    (dest / f"{name}_vh_clean_2.0.010000.segs.json").write_text(json.dumps({"segIndices": seg_idx}))
+    return by_object

@@ -17,15 +17,16 @@ from rescene_core.capture.importers import ImportOptions, import_capture
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)  # about a minute on a quiet two-core machine; far longer when it is shared
 def test_real_sample_imports_and_the_flow_places_or_reports_every_segment(hololens, tmp_path):
     out = tmp_path / "holo.zarr"
-    # every 3rd frame keeps the test short; `make demo-real` imports all 75
-    report = import_capture("rgbd", hololens, out, ImportOptions(segment="geometric", stride=3))
+    # every 5th frame keeps the test short; `make demo-real` imports all 75
+    report = import_capture("rgbd", hololens, out, ImportOptions(segment="geometric", stride=5))
     cap = open_capture(out)
     al = cap.attrs["alignment"]
     assert al["method"] == "floor" and report["segmenter"] == "geometric"
     assert cap.source == "rgbd+geometric"
-    assert report["frames"]["kept"] == 25 and report["throughput_fps"] > 0
+    assert report["frames"]["kept"] == 15 and report["throughput_fps"] > 0
     # the floor is at z = 0 within 2 cm and faces +z
     floor_ids = [int(i.id) for i in cap.instances if i.label == "floor"]
     assert floor_ids
