@@ -173,4 +173,11 @@ def export_scene(
     hashes["scene.json"] = hash_file(out_dir / "scene.json")
     write_scene_points(out_dir / "points.zarr", list(objects), config)
     hashes["points.zarr"] = hash_tree(out_dir / "points.zarr")
+    if config.simulation:
+        from rescene_core.export.simulation import MJCF_DIR, export_simulation
+
+        sim = export_simulation(out_dir, list(objects), shell, graph, missing, config)
+        for rel in sim.files:
+            hashes[rel] = hash_file(out_dir / rel)
+        hashes[MJCF_DIR] = hash_tree(out_dir / MJCF_DIR)
     return hashes

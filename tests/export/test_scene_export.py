@@ -42,6 +42,10 @@ def test_export_scene(tmp_path):
         "points.zarr",
         "objects/obj_3_night_stand.glb",
         "objects/obj_5_lamp.glb",
+        "mjcf",
+        "mjcf/scene.xml",
+        "scene.usda",
+        "export_report.json",
     }
 
     scene = trimesh.load(tmp_path / "scene.glb", force="scene")
