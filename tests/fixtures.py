@@ -7,7 +7,7 @@ Two kinds of capture, both rendered by ``rescene_core.render.Renderer`` (the ray
     box_capture_arrays(boxes, cameras)    # boxes placed by hand, for tests that need a known layout
 
 ``box_capture_arrays`` takes ``Box`` records (id, label, world-frame corners, colour) and camera poses
-(``look_at``), renders RGB, instance masks and depth, and builds each instance's point cloud either by
+(``rescene_core.geometry.camera.look_at``, re-exported here), renders RGB, instance masks and depth, and builds each instance's point cloud either by
 sampling its box surface (``points="surface"``: every face, seen or not) or from the rendered hits
 (``points="depth"``: only what the cameras saw, like a fused capture).
 """
@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from rescene_core.capture import CaptureArrays, points_to_csr, write_capture
 from rescene_core.capture.synth import SynthScene, make_scene
-from rescene_core.capture.synth.cameras import look_at
+from rescene_core.geometry.camera import look_at
 from rescene_core.records import Camera, Instance, InstanceId
 from rescene_core.render import Light, Renderer, RenderMesh, Shading
 
