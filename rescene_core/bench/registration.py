@@ -272,15 +272,11 @@ def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str
                 "rng_seed": seed * 100003 + obj.object_id,
             }
         )
-    try:
-        from rescene_core.config import HierViewConfig
-        from rescene_core.hierview import select_views
+    from rescene_core.config import HierViewConfig
+    from rescene_core.hierview import select_views
 
-        views = select_views(cap, HierViewConfig(), instance_ids=sorted(primary))
-        notes["hierview"] = "ok"
-    except ImportError as err:
-        notes["hierview"] = f"not available ({err}); the lift part is skipped"
-        return jobs, notes
+    views = select_views(cap, HierViewConfig(), instance_ids=sorted(primary))
+    notes["hierview"] = "ok"
     lift_missing = []
     for instance, obj in primary.items():
         view = views.get(instance)

@@ -65,13 +65,9 @@ def _shell(capture, gt):
 
 
 def _keyframes(capture) -> tuple[list[int], str]:
-    try:
-        from rescene_core.hierview import select_keyframes
+    from rescene_core.hierview import select_keyframes
 
-        return list(select_keyframes(capture, KeyFrameConfig()).frames), "greedy 3D coverage"
-    except ImportError:
-        step = max(1, capture.num_frames // KeyFrameConfig().budget)
-        return list(range(0, capture.num_frames, step))[: KeyFrameConfig().budget], "uniform (hierview unavailable)"
+    return list(select_keyframes(capture, KeyFrameConfig()).frames), "greedy 3D coverage"
 
 
 def single_frame_graph(predictions: list[FramePrediction], children: list[int]) -> dict[int, tuple]:

@@ -148,8 +148,10 @@ def _load_clip(model_name: str, weights: str, mtime: float):
     """(model, preprocess, tokenizer) on the CPU, eval mode; cached per weights file and its mtime."""
     try:
         import open_clip
-    except ImportError as err:  # pragma: no cover - open_clip is a core dependency
-        raise ClipUnavailableError(f"open_clip is not installed ({err}); install open_clip_torch") from err
+    except ImportError as err:
+        raise ClipUnavailableError(
+            f"the clip semantic backend needs open_clip and torch ({err}); pip install 'rescene[clip]'"
+        ) from err
     try:
         model, _, preprocess = open_clip.create_model_and_transforms(model_name, pretrained=weights, device="cpu")
         tokenizer = open_clip.get_tokenizer(model_name)

@@ -9,11 +9,12 @@ Public API:
     write_frame / write_graph: the run directory's scenegraph/ files
 """
 
-from rescene_core.scenegraph.backend import Query, RelationPredictor, TransportError, make_predictor
+from rescene_core.scenegraph.backend import Query, RelationPredictor, TransportError
 from rescene_core.scenegraph.category import CategoryPrior, load_prior, refit_prior, save_prior
 from rescene_core.scenegraph.frame import Attempt, FramePrediction, predict_frame, predict_frames, render_overlay
 from rescene_core.scenegraph.fusion import FusionReport, fuse, fuse_with_report
 from rescene_core.scenegraph.output import graph_json, write_frame, write_graph
+from rescene_core.scenegraph.predictors import make_predictor
 
 __all__ = [
     "Attempt",

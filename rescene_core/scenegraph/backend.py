@@ -1,4 +1,4 @@
-"""The relation-predictor protocol shared by the backends, and ``make_predictor``.
+"""The relation-predictor protocol shared by the backends (``make_predictor`` is in ``predictors``).
 
 A predictor answers a ``Query`` with raw text. The VLM backend sends the prompt and the overlay image
 to an endpoint; the geometric backend ignores them and answers from the frame's geometry in the same
@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 
-from rescene_core.config import SceneGraphConfig
 from rescene_core.records import RoomShell
 
 if TYPE_CHECKING:
@@ -51,16 +50,3 @@ class RelationPredictor(Protocol):
     """Whether A/B re-ranking prompts make sense for this backend (VLMs: yes)."""
 
     def answer(self, query: Query) -> str: ...
-
-
-def make_predictor(config: SceneGraphConfig) -> RelationPredictor:
-    """The predictor chosen by ``config.backend`` ('geometric' or 'openai')."""
-    if config.backend == "geometric":
-        from rescene_core.scenegraph.geometric import GeometricPredictor
-
-        return GeometricPredictor(config)
-    if config.backend == "openai":
-        from rescene_core.scenegraph.openai_backend import OpenAIPredictor
-
-        return OpenAIPredictor(config)
-    raise ValueError(f"unknown scene-graph backend {config.backend!r}; use 'geometric' or 'openai'")
