@@ -126,7 +126,7 @@ class JudgeRequest:
 
 def _client(config: JudgeConfig):
     """An ``OpenAIPredictor`` (the scene-graph VLM client) whose requests carry several images."""
-    from rescene_core.config import SceneGraphConfig
+    from rescene_core.config import SceneGraphConfig, VlmClientConfig
     from rescene_core.scenegraph.openai_backend import OpenAIPredictor
 
     class JudgeClient(OpenAIPredictor):
@@ -144,23 +144,25 @@ def _client(config: JudgeConfig):
                     "type": "json_schema",
                     "json_schema": {"name": "rescene_judge", "schema": query.schema, "strict": True},
                 },
-                "temperature": self.config.temperature,
-                "max_tokens": self.config.max_tokens,
+                "temperature": config.temperature,
+                "max_tokens": config.max_tokens,
             }
 
     model = os.environ.get(MODEL_ENV) if config.model == JudgeConfig.model_fields["model"].default else None
     sg = SceneGraphConfig(
         backend="openai",
-        base_url=config.endpoint(),
-        model=model or config.model,
-        api_key_env=config.api_key_env,
-        api_key=config.api_key,
-        timeout_s=config.timeout_s,
-        transport_retries=config.transport_retries,
-        backoff_s=config.backoff_s,
-        temperature=config.temperature,
-        max_tokens=config.max_tokens,
-        max_concurrency=1,
+        vlm=VlmClientConfig(
+            base_url=config.endpoint(),
+            model=model or config.model,
+            api_key_env=config.api_key_env,
+            api_key=config.api_key,
+            timeout_s=config.timeout_s,
+            transport_retries=config.transport_retries,
+            backoff_s=config.backoff_s,
+            temperature=config.temperature,
+            max_tokens=config.max_tokens,
+            max_concurrency=1,
+        ),
     )
     client = JudgeClient(sg)
     client.model = model or config.model
