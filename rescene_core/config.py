@@ -221,7 +221,8 @@ class AssetConfig(_Section):
     target_faces: int = 4000
     """Face budget of generated meshes. Default: the project's choice."""
     sam3d_code_dir: str | None = None
-    """Local clone of facebookresearch/sam-3d-objects whose notebook/inference.py is imported (sam3d only).
+    """Local clone of facebookresearch/sam-3d-objects whose notebook/inference.py is loaded by its path (sam3d
+    only; unset: the clone of the installed sam3d_objects package).
     Default: the project's choice."""
     seed: int = 42
     """Generator seed (sam3d). Default: the project's choice."""

@@ -13,16 +13,18 @@ local points in the PyTorch3D camera frame with row vectors: ``p_cam = (s * p_lo
 right, y down, z forward. The exported GLB is y-up (glTF); the local frame is z-up, related by
 ``GLB_FROM_LOCAL`` (a -90 deg turn about x, as the repository's own y-up/z-up fix uses).
 
-This module imports nothing heavy at import time; ``Sam3dBackend`` imports ``inference`` (SAM 3D
-Objects installed from its repository, whose clone ``assets.sam3d_code_dir`` names) only when it is
-constructed, and says which install or checkpoint is missing. The model was not run in this
+This module imports nothing heavy at import time; ``Sam3dBackend`` loads ``notebook/inference.py`` by
+its path (``load_inference``: the clone ``assets.sam3d_code_dir`` names, else the clone the installed
+``sam3d_objects`` package lives in; ``sys.path`` is left alone) only when it is constructed, and says
+which install or checkpoint is missing. The model was not run in this
 project's tests (no weights, no GPU); ``convert_output`` is tested on fake outputs of the documented
 shape. docs/backends.md says what was and was not run.
 """
 
 from __future__ import annotations
 
-import sys
+import functools
+import importlib.util
 from pathlib import Path
 from typing import Any
 
@@ -101,6 +103,49 @@ def layout_pose(asset: Asset) -> Pose | None:
     return Pose(asset.instance, np.asarray(prior, dtype=np.float64), "sam3d_layout", {"source": "SAM 3D layout"})
 
 
+def inference_path(code_dir: str | None) -> Path:
+    """The repository's ``notebook/inference.py``: under ``code_dir`` when given, else beside the installed
+    ``sam3d_objects`` package (an editable install of the clone). Raises BackendUnavailable naming the fix."""
+    if code_dir:
+        path = Path(code_dir).expanduser() / "notebook" / "inference.py"
+    else:
+        spec = importlib.util.find_spec("sam3d_objects")
+        if spec is None or spec.origin is None:
+            raise BackendUnavailable(
+                "the sam3d backend needs SAM 3D Objects installed on this worker (pip install -e the "
+                "sam-3d-objects clone with its inference extras) and assets.sam3d_code_dir set to the clone"
+            )
+        path = Path(spec.origin).resolve().parent.parent / "notebook" / "inference.py"
+    if not path.is_file():
+        raise BackendUnavailable(
+            f"SAM 3D Objects' notebook/inference.py not found at {path}; set assets.sam3d_code_dir to the "
+            "sam-3d-objects clone"
+        )
+    return path
+
+
+@functools.cache
+def load_inference(path: Path) -> type:
+    """The ``Inference`` class of SAM 3D Objects' ``notebook/inference.py``, loaded by path as its own module
+    (the notebook folder is not a package; ``sys.path`` is not touched). BackendUnavailable when its imports
+    (``sam3d_objects``, torch, pytorch3d, ...) are not installed."""
+    spec = importlib.util.spec_from_file_location("rescene_sam3d_inference", path)
+    if spec is None or spec.loader is None:
+        raise BackendUnavailable(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except ImportError as err:
+        raise BackendUnavailable(
+            f"{path} needs SAM 3D Objects installed on this worker (pip install -e the sam-3d-objects clone "
+            f"with its inference extras): {err}"
+        ) from err
+    inference = getattr(module, "Inference", None)
+    if not isinstance(inference, type):
+        raise BackendUnavailable(f"{path} defines no Inference class (an unexpected sam-3d-objects version)")
+    return inference
+
+
 class Sam3dBackend:
     """SAM 3D Objects behind the AssetBackend protocol (GPU worker with SAM 3D Objects installed)."""
 
@@ -118,20 +163,9 @@ class Sam3dBackend:
             config_path = config_path / "pipeline.yaml"
         if not config_path.is_file():
             raise BackendUnavailable(f"SAM 3D Objects pipeline config not found at {config_path}")
-        if config.sam3d_code_dir:
-            sys.path.insert(0, str(Path(config.sam3d_code_dir) / "notebook"))
-            sys.path.insert(0, str(Path(config.sam3d_code_dir)))
-        try:
-            from inference import Inference  # the repository's notebook/inference.py
-        except ImportError as err:
-            raise BackendUnavailable(
-                "the sam3d backend needs SAM 3D Objects installed on this worker (its repository "
-                "installed with its inference extras; set assets.sam3d_code_dir to the clone so that "
-                "notebook/inference.py imports) "
-                f"({err})"
-            ) from err
+        inference_cls = load_inference(inference_path(config.sam3d_code_dir))
         self.seed = config.seed
-        self.inference = Inference(str(config_path), compile=False)
+        self.inference = inference_cls(str(config_path), compile=False)
 
     def generate(self, view: GeneratorInput) -> GeneratorOutput:
         output = self.inference(np.asarray(view.rgb), np.asarray(view.mask, bool), seed=self.seed)

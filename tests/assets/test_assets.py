@@ -171,6 +171,30 @@ def test_sam3d_backend_names_what_is_missing(tmp_path):
     (tmp_path / "pipeline.yaml").write_text("{}\n")
     with pytest.raises(BackendUnavailable, match="SAM 3D Objects installed"):
         Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path)))
+    with pytest.raises(BackendUnavailable, match="inference.py not found"):
+        Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path), sam3d_code_dir=str(tmp_path)))
+
+
+def test_sam3d_inference_loads_by_path_without_touching_sys_path(tmp_path):
+    """The repository's notebook/inference.py is loaded from the clone; a missing SAM 3D install names the fix."""
+    import sys
+
+    (tmp_path / "pipeline.yaml").write_text("{}\n")
+    clone = tmp_path / "clone"
+    (clone / "notebook").mkdir(parents=True)
+    (clone / "notebook" / "inference.py").write_text(
+        "class Inference:\n    def __init__(self, config_file, compile=False):\n        self.config_file = config_file\n"
+    )
+    before = list(sys.path)
+    backend = Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path), sam3d_code_dir=str(clone)))
+    assert sys.path == before
+    assert backend.inference.config_file == str(tmp_path / "pipeline.yaml")
+    broken = tmp_path / "broken"
+    (broken / "notebook").mkdir(parents=True)
+    (broken / "notebook" / "inference.py").write_text("import sam3d_objects_not_installed_here\n")
+    with pytest.raises(BackendUnavailable, match="pip install -e"):
+        Sam3dBackend(AssetConfig(backend="sam3d", sam3d_checkpoint=str(tmp_path), sam3d_code_dir=str(broken)))
+    assert sys.path == before
 
 
 def _upright_extents(asset: Asset) -> tuple[float, float, float]:
