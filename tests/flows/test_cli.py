@@ -32,7 +32,7 @@ def test_run_log_eval_commands(prefect_server, fake_stages, box_capture_path, tm
 
 def test_run_rejects_unknown_setting(box_capture_path, tmp_path, capsys):
     assert main(["run", str(box_capture_path), "--out", str(tmp_path / "r"), "--set", "registration.nope=1"]) == 2
-    assert "unknown setting" in capsys.readouterr().err
+    assert "registration has no setting 'nope'" in capsys.readouterr().err
 
 
 def test_run_bad_capture_exits_2(prefect_server, fake_stages, tmp_path, capsys):
