@@ -73,7 +73,8 @@ def import_panoptic(
     else:
         raise ImportInputError(f"unknown base layout {base!r}; use rgbd, scannet or nerfstudio")
     frames.source = "panoptic"
-    assert frames.masks is not None
+    if frames.masks is None:
+        raise ImportInputError(f"{mask_dir}: no instance masks were read; the panoptic import needs one mask per frame")
     unknown = sorted({int(i) for i in set(frames.masks.ravel().tolist()) if i > 0} - set(table))
     if unknown:
         frames.notes.append(

@@ -195,7 +195,8 @@ def _labels_2d(
     tsv = src / LABEL_MAP_NAME
     names = read_label_map(tsv) if tsv.is_file() else {}
     votes: dict[int, Counter] = {}
-    assert frames.masks is not None
+    if frames.masks is None:
+        raise ImportInputError(f"{src}: ScanNet 2D labels need the instance masks (instance-filt) to vote on")
     h, w = frames.masks.shape[1:]
     for t, path in enumerate(label_files):
         lab = read_png_int(path).astype(np.int64)
