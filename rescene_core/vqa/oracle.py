@@ -29,6 +29,9 @@ from rescene_core.vqa.items import COMPASS, FLOOR_ANSWER, VqaItem, wall_directio
 from rescene_core.vqa.render import Viewpoint, visible_objects
 from rescene_core.vqa.scene import VqaScene, edge_parent_id
 
+LABEL_ONLY = frozenset({"count", "count_in_view", "label_at_view_centre", "facing_wall"})
+"""Templates whose question names no object (a label, the view): answerable whatever objects the scene has."""
+
 
 class _Scene:
     def __init__(self, scene: VqaScene):
@@ -75,7 +78,7 @@ def answer_on(
     config = config or VqaConfig()
     s = _Scene(scene)
     ids = [int(i) for i in item.object_ids]
-    if any(i not in s.obj for i in ids):
+    if item.template not in LABEL_ONLY and any(i not in s.obj for i in ids):
         return None
     names = {int(k): v for k, v in item.provenance.get("names", {}).items()}
     prov: dict[str, Any] = item.provenance
