@@ -23,6 +23,8 @@ SUITES: dict[str, str] = {
     "scenegraph": "rescene_core.bench.scenegraph",
     "assembly": "rescene_core.bench.assembly",
     "pipeline": "rescene_core.bench.pipeline",
+    "paper": "rescene_core.bench.paper",
+    "import": "rescene_core.bench.importers",
 }
 """Suite name -> module. A suite whose module is not there yet is listed but reports so when run."""
 
