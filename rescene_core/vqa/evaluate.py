@@ -273,6 +273,11 @@ def evaluate_dataset(
     test = read_split(ds, split)
     if limit is not None:
         test = test[:limit]
+    missing = [r["image"] for r in test if r.get("image") and not (ds / r["image"]).is_file()]
+    if missing:
+        raise VqaInputError(
+            f"{ds}: {len(missing)} question images are missing, e.g. {ds / missing[0]}; rebuild the data set"
+        )
     train = read_split(ds, "train") if (ds / "train.jsonl").is_file() else []
     rows = baselines(train, test)
     answers: dict[str, list[dict[str, Any]]] = {}

@@ -214,3 +214,12 @@ def test_cli_eval_baselines_and_endpoint_errors(small_ds, tmp_path, capsys):
     assert saved["rows"]["model"]["status"] == {"failed": 3}
     assert main(["vqa", "eval", str(out), "--endpoint", "http://127.0.0.1:9/v1"]) == 2
     assert main(["vqa", "eval", str(tmp_path / "nothing")]) == 2
+
+
+def test_missing_images_are_a_clear_error(small_ds, tmp_path, capsys):
+    out, _, _ = small_ds
+    rows = [r for r in read_split(out, "test") if r["image"]][:2]
+    (tmp_path / "ds").mkdir()
+    (tmp_path / "ds" / "test.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    assert main(["vqa", "eval", str(tmp_path / "ds"), "--endpoint", "http://127.0.0.1:9/v1", "--model", "m"]) == 2
+    assert "images are missing" in capsys.readouterr().err
