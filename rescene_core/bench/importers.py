@@ -1,0 +1,216 @@
+"""Benchmark suite ``import``: importers, gravity alignment and the label-free front end.
+
+Per seed, on a synthetic capture of the preset:
+- round trip: the capture written out in the rgbd (+ instance PNGs), scannet and nerfstudio layouts and
+  imported back without alignment; largest pose, intrinsics and depth differences, masks identical;
+- gravity: the capture written as a y-up recorder and imported with floor alignment; floor normal error
+  and camera height error against the truth;
+- label-free segmentation (``--segment geometric``) against the error-free object masks: instance recall
+  (objects larger than 20 cm) and precision at mask IoU 0.5.
+Once, when ``../shared/data/hololens-000`` is there: the real sample imported with the label-free front
+end (floor normal against the cameras' mean up, floor height, objects found, frames/s).
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rescene_core.capture.importers import ImportOptions, import_capture
+
+REAL_SAMPLE = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "hololens-000"
+"""The real RGB-D recording (shared/data), relative to the repository."""
+
+
+DEPTH_QUANTUM = 0.5e-3 + 1e-6
+"""Largest depth difference of an exact round trip: half a millimetre of the uint16 PNG, plus float32 rounding."""
+
+
+def _angle(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    c = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def _round_trip(scene, work: Path) -> dict[str, Any]:
+    from rescene_core.capture import open_capture
+    from rescene_core.capture.importers.layouts import write_nerfstudio, write_panoptic, write_scannet
+
+    a = scene.arrays
+    out: dict[str, Any] = {}
+    for layout in ("panoptic", "scannet", "nerfstudio"):
+        src = work / f"src_{layout}"
+        if layout == "panoptic":
+            write_panoptic(a, src)
+            fmt = "panoptic"
+        elif layout == "scannet":
+            write_scannet(a, src)
+            fmt = "scannet"
+        else:
+            write_nerfstudio(a, src)
+            shutil.copytree(work / "src_panoptic" / "instances", src / "instances")
+            for p in sorted((src / "instances").iterdir()):
+                p.rename(p.with_name(f"frame_{int(p.stem) + 1:05d}.png"))
+            shutil.copy(work / "src_panoptic" / "labels.json", src / "labels.json")
+            fmt = "panoptic"
+        dest = work / f"{layout}.zarr"
+        report = import_capture(fmt, src, dest, ImportOptions(align="none", overwrite=True))
+        cap = open_capture(dest)
+        out[layout] = {
+            "pose_max_abs": float(np.abs(cap.world_from_cam - a.world_from_cam).max()),
+            "K_max_abs": float(np.abs(cap.K - a.K).max()),
+            "depth_max_abs_m": float(np.abs(np.asarray(cap.depth[...]) - a.depth).max()),
+            "masks_identical": bool(np.array_equal(np.asarray(cap.instance_masks[...]), a.instance_masks)),
+            "frames_per_s": report["throughput_fps"],
+        }
+        if layout != "panoptic":  # the nerfstudio layout borrows its instance PNGs
+            shutil.rmtree(src, ignore_errors=True)
+    shutil.rmtree(work / "src_panoptic", ignore_errors=True)
+    return out
+
+
+def _gravity(scene, work: Path) -> dict[str, Any]:
+    from rescene_core.capture import open_capture
+    from rescene_core.capture.importers.layouts import Y_UP_FROM_Z_UP, write_panoptic
+
+    a = scene.arrays
+    src = write_panoptic(a, work / "src_yup", source_from_world=Y_UP_FROM_Z_UP)
+    dest = work / "yup.zarr"
+    report = import_capture("panoptic", src, dest, ImportOptions(overwrite=True))
+    cap = open_capture(dest)
+    shutil.rmtree(src, ignore_errors=True)
+    al = report["alignment"]
+    return {
+        "method": al["method"],
+        "floor_normal_error_deg": round(_angle(al["floor_normal_source"], Y_UP_FROM_Z_UP[:3, 2]), 4),
+        "camera_height_error_m": round(float(np.abs(cap.world_from_cam[:, 2, 3] - a.world_from_cam[:, 2, 3]).max()), 4),
+        "floor_to_camera_up_deg": al["floor_to_camera_up_deg"],
+    }
+
+
+def _segmentation(scene) -> dict[str, Any]:
+    from rescene_core.segment import segment_geometric
+    from rescene_core.segment.evaluate import instance_scores, synth_object_sizes
+
+    a = scene.arrays
+    t = time.perf_counter()
+    seg = segment_geometric(a.rgb, a.depth, a.K, a.world_from_cam)
+    seconds = time.perf_counter() - t
+    objects = {i for i, (_, st) in seg.labels.items() if not st}
+    scores = instance_scores(seg.masks, scene.object_id_frames, objects, synth_object_sizes(scene))
+    labels = {int(o.object_id): o.label for o in scene.gt.objects}
+    scores["missed_large"] = [
+        {"object": i, "label": labels.get(i, "?"), "best_iou": iou, "size_m": size}
+        for i, iou, size in scores["missed_large"]
+    ]
+    kinds = [p["kind"] for p in seg.report["planes"]]
+    return {
+        **scores,
+        "walls_found": kinds.count("wall"),
+        "walls_true": len(scene.gt.shell.walls),
+        "ceiling_found": "ceiling" in kinds,
+        "seconds": round(seconds, 2),
+    }
+
+
+def _real_sample(work: Path) -> dict[str, Any]:
+    from rescene_core.capture import open_capture
+
+    if not (REAL_SAMPLE / "poses.txt").is_file():
+        return {"skipped": f"no real sample at {REAL_SAMPLE.resolve()}"}
+    dest = work / "hololens-000.zarr"
+    report = import_capture("rgbd", REAL_SAMPLE.resolve(), dest, ImportOptions(segment="geometric", overwrite=True))
+    cap = open_capture(dest)
+    floor = [int(i.id) for i in cap.instances if i.label == "floor"]
+    floor_z = float(np.median(cap.point_cloud(floor[0]).points[:, 2])) if floor else float("nan")
+    return {
+        "frames": report["frames"]["kept"],
+        "alignment": report["alignment"]["method"],
+        "floor_to_camera_up_deg": report["alignment"]["floor_to_camera_up_deg"],
+        "floor_median_z_m": round(floor_z, 4),
+        "objects": report["instances"]["objects"],
+        "structural": report["instances"]["structural"],
+        "frames_per_s": report["throughput_fps"],
+        "seconds": report["timings_s"],
+    }
+
+
+def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
+    from rescene_core.capture.synth import make_scene
+
+    work_dir = Path(work_dir)
+    work_dir.mkdir(parents=True, exist_ok=True)
+    per_seed = []
+    for seed in seeds:
+        scene = make_scene(preset, seed)
+        work = work_dir / f"seed{seed}"
+        work.mkdir(parents=True, exist_ok=True)
+        per_seed.append(
+            {
+                "seed": seed,
+                "round_trip": _round_trip(scene, work),
+                "gravity": _gravity(scene, work),
+                "segmentation": _segmentation(scene),
+            }
+        )
+    seg = [s["segmentation"] for s in per_seed]
+
+    def mean(key: str) -> float | None:
+        vals = [s[key] for s in seg if s[key] is not None]
+        return round(float(np.mean(vals)), 4) if vals else None
+
+    return {
+        "per_seed": per_seed,
+        "summary": {
+            "recall_large": mean("recall_large"),
+            "recall_all": mean("recall_all"),
+            "precision": mean("precision"),
+            "floor_normal_error_deg_max": max(s["gravity"]["floor_normal_error_deg"] for s in per_seed),
+            "round_trip_exact": all(
+                r["masks_identical"]
+                and r["pose_max_abs"] < 1e-9
+                and r["K_max_abs"] < 1e-9
+                and r["depth_max_abs_m"] <= DEPTH_QUANTUM
+                for s in per_seed
+                for r in s["round_trip"].values()
+            ),
+        },
+        "real_sample": _real_sample(work_dir),
+    }
+
+
+def table(result: dict[str, Any]) -> str:
+    lines = [f"import suite, preset {result['preset']}, seeds {result['seeds']}"]
+    lines.append("round trip (align none): layout | pose max | K max | depth max (m) | masks identical | frames/s")
+    for s in result["per_seed"]:
+        for layout, r in s["round_trip"].items():
+            lines.append(
+                f"  seed {s['seed']} {layout:10s} | {r['pose_max_abs']:.1e} | {r['K_max_abs']:.1e} | "
+                f"{r['depth_max_abs_m']:.1e} | {r['masks_identical']} | {r['frames_per_s']:.1f}"
+            )
+    lines.append("gravity (y-up recorder): seed | floor normal error (deg) | camera height error (m)")
+    for s in result["per_seed"]:
+        g = s["gravity"]
+        lines.append(f"  {s['seed']} | {g['floor_normal_error_deg']:.3f} | {g['camera_height_error_m']:.3f}")
+    lines.append("label-free segmentation: seed | recall >20 cm | recall all | precision | segments | walls | s")
+    for s in result["per_seed"]:
+        g = s["segmentation"]
+        lines.append(
+            f"  {s['seed']} | {g['recall_large']} | {g['recall_all']} | {g['precision']} | {g['segments']} | "
+            f"{g['walls_found']}/{g['walls_true']} | {g['seconds']}"
+        )
+    sm = result["summary"]
+    lines.append(f"mean recall >20 cm {sm['recall_large']} (aim 0.8), precision {sm['precision']}")
+    r = result["real_sample"]
+    if "skipped" in r:
+        lines.append(f"real sample: {r['skipped']}")
+    else:
+        lines.append(
+            f"real sample: {r['frames']} frames, floor {r['floor_to_camera_up_deg']:.2f} deg from the cameras' up, "
+            f"floor median z {r['floor_median_z_m'] * 100:.1f} cm, {r['objects']} objects, {r['frames_per_s']:.2f} frames/s"
+        )
+    return "\n".join(lines)
