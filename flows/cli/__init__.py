@@ -169,7 +169,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMAND_GROUPS: list[str] = ["importers", "demo", "vqa", "report"]
+COMMAND_GROUPS: list[str] = ["importers", "demo", "vqa", "report", "sim"]
 """Modules of ``flows.cli`` that add sub-commands: each has ``register(sub)``, which adds its parsers to
 the ``add_subparsers`` object and sets ``func`` (``args -> exit code``) on each."""
 

@@ -113,3 +113,47 @@ def export_simulation(
     }
     write_json_atomic(out_dir / REPORT_FILE, report)
     return SimulationExport((MJCF_FILE, usd_rel, REPORT_FILE), report)
+
+
+def read_exported_scene(
+    scene_dir: str | Path,
+) -> tuple[list[ExportObject], RoomShell | None, SceneGraph, list[Missing], dict[str, Any]]:
+    """The objects, shell, graph, missing instances and other scene.json fields of an exported scene/."""
+    import trimesh
+
+    from rescene_core.io import read_json
+
+    scene_dir = Path(scene_dir)
+    path = scene_dir / "scene.json"
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
+    doc = read_json(path)
+    objects = []
+    for entry in doc["objects"]:
+        mesh = trimesh.load(scene_dir / entry["mesh"], force="mesh", process=False)
+        registered = entry.get("registered_world_from_asset")
+        objects.append(
+            ExportObject(
+                int(entry["instance"]),
+                str(entry["label"]),
+                np.asarray(mesh.vertices, np.float64),
+                np.asarray(mesh.faces, np.int64),
+                np.asarray(entry["world_from_asset"], np.float64),
+                None if registered is None else np.asarray(registered, np.float64),
+            )
+        )
+    shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
+    graph = SceneGraph.from_json(doc.get("graph", {"edges": []}))
+    missing = [Missing.from_json(m) for m in doc.get("missing", [])]
+    known = {"format", "version", "units", "up", "objects", "graph", "shell", "shell_nodes", "missing"}
+    return objects, shell, graph, missing, {k: v for k, v in doc.items() if k not in known}
+
+
+def export_run(run_dir: str | Path, config: ExportConfig) -> dict[str, Any]:
+    """Write a run's scene/ exports again (GLB, scene.json, MJCF, USD, report) from its scene.json and
+    objects/; returns {file: sha256}."""
+    from rescene_core.export.scene import export_scene
+
+    scene_dir = Path(run_dir) / "scene"
+    objects, shell, graph, missing, extra = read_exported_scene(scene_dir)
+    return export_scene(scene_dir, objects, shell, graph, missing, config, extra=extra)
