@@ -23,6 +23,7 @@ SUITES: dict[str, str] = {
     "scenegraph": "rescene_core.bench.scenegraph",
     "assembly": "rescene_core.bench.assembly",
     "pipeline": "rescene_core.bench.pipeline",
+    "sim": "rescene_core.bench.sim",
     "paper": "rescene_core.bench.paper",
     "import": "rescene_core.bench.importers",
 }
