@@ -84,10 +84,14 @@ def run_pipeline(
         if view is None:
             missing.append(Missing(InstanceId(i), Stage.VIEW, "view selection returned nothing for this instance"))
             continue
-        asset = view if isinstance(view, Missing) else timed(Stage.ASSET, generate_asset, cap, view, config.assets)
-        pose = asset
-        if not isinstance(asset, Missing):
-            pose = timed(Stage.REGISTRATION, register, asset, cap.point_cloud(i), config.registration)
+        if isinstance(view, Missing):
+            missing.append(view)
+            continue
+        asset = timed(Stage.ASSET, generate_asset, cap, view, config.assets)
+        if isinstance(asset, Missing):
+            missing.append(asset)
+            continue
+        pose = timed(Stage.REGISTRATION, register, asset, cap.point_cloud(i), config.registration)
         if isinstance(pose, Missing):
             missing.append(pose)
             continue
