@@ -52,6 +52,7 @@ class Stage(enum.StrEnum):
     SNAPSHOT = "snapshot"
     ATTACHMENT = "attachment"
     EXPORT = "export"
+    SIMCHECK = "simcheck"
     EVALUATION = "evaluation"
 
     @classmethod
@@ -483,6 +484,13 @@ class Ref:
     @property
     def ok(self) -> bool:
         return self.status is RefStatus.OK
+
+    @property
+    def instance(self) -> InstanceId:
+        """The instance of a per-instance reference (ValueError for a scene-level one)."""
+        if self.item is None:
+            raise ValueError(f"{self.kind} reference {self.path} belongs to no instance")
+        return InstanceId(int(self.item))
 
     def cache_digest(self) -> dict[str, str]:
         """What of this reference a downstream cache key depends on: the content hash and the status."""

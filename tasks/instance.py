@@ -70,7 +70,7 @@ def select_views(run_dir: str, capture: Ref, instances: list[int], config: HierV
 def generate_asset(run_dir: str, capture: Ref, view: Ref, config: AssetConfig) -> Ref:
     """Asset generation from the chosen view -> instances/<id>/asset.glb + asset.json."""
     run = RunPaths(run_dir)
-    instance = int(view.item)
+    instance = view.instance
     path = run.asset_meta(instance)
     with executing(run_dir, Stage.ASSET, instance) as seg:
         if view.missing is not None:
@@ -103,16 +103,15 @@ def generate_asset(run_dir: str, capture: Ref, view: Ref, config: AssetConfig) -
 def load_asset_ref(run_dir: str, ref: Ref) -> Asset:
     """The Asset behind an asset reference (reads instances/<id>/asset.glb)."""
     run = RunPaths(run_dir)
-    instance = int(ref.item)
     meta = read_json(run.root / ref.path)
-    return stages.load_asset(run.instance_dir(instance) / meta["glb"], InstanceId(instance))
+    return stages.load_asset(run.instance_dir(ref.instance) / meta["glb"], ref.instance)
 
 
 @stage_task(Stage.REGISTRATION)
 def register_instance(run_dir: str, capture: Ref, asset: Ref, config: RegistrationConfig) -> Ref:
     """Bounded Sim(3) registration of the asset to the instance points -> instances/<id>/pose.json."""
     run = RunPaths(run_dir)
-    instance = int(asset.item)
+    instance = asset.instance
     path = run.pose(instance)
     with executing(run_dir, Stage.REGISTRATION, instance) as seg:
         if asset.missing is not None:

@@ -34,8 +34,11 @@ AIMS = {"overhead_ratio": 1.20, "cached_fraction": 0.05, "seconds_cold": 120.0}
 class FlowOutcome(Protocol):
     """The final state of one flow run, as the benchmark reads it."""
 
-    name: str
-    message: str | None
+    @property
+    def name(self) -> str | None: ...
+
+    @property
+    def message(self) -> str | None: ...
 
 
 class Harness(Protocol):
