@@ -37,7 +37,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--split-seed", type=int, default=0)
     p.add_argument("--per-category", type=int, default=60, help="most questions per category and scene")
     p.add_argument("--walks", type=int, default=1, help="agent walks per scene")
-    p.add_argument("--steps", type=int, default=16, help="actions (captures) per walk")
+    p.add_argument("--steps", type=int, default=24, help="actions (captures) per walk")
     p.add_argument("--seed", type=int, default=0, help="seed of scene k is SEED + k")
     p.add_argument("--views", choices=["walk", "target"], default="walk", help="how views are taken")
     return p

@@ -199,8 +199,8 @@ def build_dataset(
             write_vqa(dataset, out / "scenes" / name)
             taken.add(name)
             done.append((name, source, scene, dataset.items, dataset.summary, time.perf_counter() - t0))
-        except (VqaInputError, FileNotFoundError, ValueError) as err:
-            failed.append({"source": f"{source.kind}:{source.ref}", "error": str(err)})
+        except (OSError, ValueError, KeyError) as err:  # VqaInputError and CaptureError are ValueErrors
+            failed.append({"source": f"{source.kind}:{source.ref}", "error": f"{type(err).__name__}: {err}"})
         if progress is not None:
             progress(k + 1, len(sources), name)
     splits = split_scenes([d[0] for d in done], test_ratio, split_seed)

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from flows.cli import main
-from rescene_core.capture.synth import make_scene
+from rescene_core.capture import open_capture
+from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.vqa import scene_from_ground_truth, scene_from_synth_layout
 from rescene_core.vqa.build import RECORD_FIELDS, scene_source, split_scenes
 
@@ -72,19 +73,6 @@ def test_datasets_json_loader_reads_records_and_conversations(small_ds):
     assert sft["train"][0]["messages"][1]["role"] == "assistant"
 
 
-def test_synth_layout_scene_is_the_capture_ground_truth():
-    gt = make_scene("tiny", 1).gt
-    from_capture = scene_from_ground_truth(gt)
-    from_layout = scene_from_synth_layout("tiny", 1)
-    primary = gt.primary_instance()
-    assert len(from_layout.objects) == len(gt.objects)
-    for o in from_layout.objects:
-        if o.id in primary:
-            twin = from_capture.object(primary[o.id])
-            assert twin.label == o.label
-            np.testing.assert_allclose(twin.box_min, o.box_min, atol=1e-9)
-
-
 def test_sources_and_cli(tmp_path, capsys):
     assert scene_source("synth:standard:3").kind == "synth"
     assert scene_source("a/room.zarr").kind == "capture"
@@ -94,3 +82,28 @@ def test_sources_and_cli(tmp_path, capsys):
     assert main(args + ["--per-category", "3"]) == 0
     assert "questions from 2 scenes" in capsys.readouterr().out
     assert (tmp_path / "ds" / "card.json").is_file()
+
+
+def test_capture_source_uses_its_ground_truth(tmp_path):
+    from rescene_core.capture.synth import write_synth
+    from rescene_core.vqa import VqaConfig
+    from rescene_core.vqa.build import build_dataset
+
+    capture = write_synth(tmp_path / "room.zarr", "tiny", seed=2)
+    (tmp_path / "broken.zarr").mkdir()
+    sources = [scene_source(capture), scene_source(tmp_path / "broken.zarr")]
+    card = build_dataset(sources, tmp_path / "ds", VqaConfig(views=0, per_category=5), test_ratio=0.0)
+    assert [s["scene_backend"] for s in card["scenes"]] == ["ground-truth"]
+    assert card["scenes"][0]["name"] == "synth-tiny-2" and card["scenes"][0]["split"] == "train"
+    assert len(card["failed"]) == 1 and "broken.zarr" in card["failed"][0]["source"]
+    assert card["questions"]["train"] > 0 and card["questions"]["test"] == 0
+    # the synthetic layout without frames is the same scene as the capture's ground truth
+    gt = read_ground_truth(open_capture(capture))
+    from_capture, from_layout = scene_from_ground_truth(gt), scene_from_synth_layout("tiny", 2)
+    primary = gt.primary_instance()
+    assert len(from_layout.objects) == len(gt.objects)
+    for o in from_layout.objects:
+        if o.id in primary:
+            twin = from_capture.object(primary[o.id])
+            assert twin.label == o.label
+            np.testing.assert_allclose(twin.box_min, o.box_min, atol=1e-9)
