@@ -80,6 +80,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
     relations_t, fusion_t, snapshot_t, attach_t, export_t, evaluate_t = (_bind(t, run) for t in (
         scene_tasks.predict_relations, scene_tasks.fuse_graph, scene_tasks.snapshot_registration,
         scene_tasks.attach_layout, scene_tasks.export, scene_tasks.evaluate))  # fmt: skip
+    simcheck_t = _bind(scene_tasks.simcheck, run)
     rd, cr = unmapped(str(run.root)), unmapped(capture_in)
     rows: list[dict[str, Any]] = []
     stage_rows: list[dict[str, Any]] = []
@@ -159,6 +160,8 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
         )
         scene_level = [(Stage.SHELL, shell_f), (Stage.KEYFRAMES, keyframes_f), (Stage.SNAPSHOT, snapshot_f)]
         scene_level += [(Stage.FUSION, graph_f), (Stage.ATTACHMENT, layout_f), (Stage.EXPORT, scene_f)]
+        if config.export.simulation:  # the physics check of the MJCF the export wrote
+            scene_level.append((Stage.SIMCHECK, simcheck_t.submit(str(run.root), scene_f, config.sim)))
         if cap.has_gt:
             scene_level.append((Stage.EVALUATION, evaluate_t.submit(str(run.root), capture_in, scene_f)))
         wait([f for _, f in scene_level])

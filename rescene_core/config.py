@@ -708,6 +708,29 @@ class ExportConfig(_Section):
     Default: the project's choice."""
 
 
+class SimcheckConfig(_Section):
+    """Settings of the physics check."""
+
+    seconds: float = 2.0
+    """Simulated time under gravity (s)."""
+    stable_translation: float = 0.02
+    """Largest centre-of-mass drift of a stable object (m)."""
+    stable_rotation_deg: float = 5.0
+    """Largest rotation of a stable object (deg)."""
+    escape_margin: float = 0.1
+    """How far outside the floor polygon an object's centre may end before it counts as escaped (m)."""
+    shake: bool = False
+    """Shake the room horizontally during the first ``shake_seconds``."""
+    shake_seconds: float = 1.0
+    """How long the shake lasts (s); the rest of ``seconds`` is settling."""
+    shake_accel: float = 3.0
+    """Peak horizontal acceleration of the shake (m/s^2)."""
+    shake_hz: tuple[float, float] = (2.0, 5.0)
+    """Frequencies of the two sinusoids of the shake (Hz)."""
+    seed: int = 0
+    """Seed of the shake's phases and directions."""
+
+
 class RunConfig(_Section):
     """Everything one run of the flow needs besides the capture and the run directory."""
 
@@ -719,6 +742,7 @@ class RunConfig(_Section):
     scenegraph: SceneGraphConfig = Field(default_factory=SceneGraphConfig)
     attachment: AttachmentConfig = Field(default_factory=AttachmentConfig)
     export: ExportConfig = Field(default_factory=ExportConfig)
+    sim: SimcheckConfig = Field(default_factory=SimcheckConfig)
     vqa: VqaConfig = Field(default_factory=VqaConfig)
 
     def section_hash(self, name: str) -> str:

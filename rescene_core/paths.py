@@ -49,6 +49,7 @@ SCENE_POINTS = "scene/points.zarr"
 
 # checks, evaluation, VQA
 SIMCHECK = "sim/simcheck.json"
+SIM_PICTURE = "sim/before_after.png"
 EVAL = "eval/"
 METRICS = "eval/metrics.json"
 REPORT_MD = "eval/report.md"
@@ -203,6 +204,10 @@ class RunPaths:
     @property
     def simcheck(self) -> Path:
         return self._at(SIMCHECK)
+
+    @property
+    def sim_picture(self) -> Path:
+        return self._at(SIM_PICTURE)
 
     @property
     def eval(self) -> Path:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rescene_core.capture import open_capture
-from rescene_core.config import AttachmentConfig, KeyFrameConfig, SceneGraphConfig, ShellConfig
+from rescene_core.config import AttachmentConfig, KeyFrameConfig, SceneGraphConfig, ShellConfig, SimcheckConfig
 from rescene_core.evaluation import evaluate_run
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.io import read_json, write_json_atomic
@@ -240,6 +240,19 @@ def export(
         )
         seg.log("/metrics", {"stage": Stage.EXPORT, "metrics": {"objects": len(objects), "files": len(hashes)}})
         return make_ref(run_dir, run.scene_json, "scene", numbers={"objects": len(objects)}, detail={"files": hashes})
+
+
+@stage_task(Stage.SIMCHECK)
+def simcheck(run_dir: str, scene: Ref, config: SimcheckConfig) -> Ref:
+    """The physics check of scene/mjcf/scene.xml -> sim/simcheck.json and sim/before_after.png."""
+    from rescene_core.sim import simcheck_run
+
+    run = RunPaths(run_dir)
+    with executing(run_dir, Stage.SIMCHECK) as seg:
+        result = simcheck_run(run_dir, config)
+        numbers = {k: v for k, v in result.summary.items() if isinstance(v, int | float) and not isinstance(v, bool)}
+        seg.log("/metrics", {"stage": Stage.SIMCHECK, "metrics": numbers})
+        return make_ref(run_dir, run.simcheck, "simcheck", numbers=numbers)
 
 
 @stage_task(Stage.EVALUATION)

@@ -61,6 +61,7 @@ STAGE_MODULES: dict[Stage, tuple[str, ...]] = {
     Stage.ATTACHMENT: ("rescene_core.assembly",),
     Stage.SNAPSHOT: ("rescene_core.runlog",),
     Stage.EXPORT: ("rescene_core.export",),
+    Stage.SIMCHECK: ("rescene_core.sim", "rescene_core.export"),
     Stage.EVALUATION: ("rescene_core.evaluation",),
 }
 """Stage -> library packages whose source makes up the stage's code version."""

@@ -21,42 +21,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
 
+from rescene_core.config import SimcheckConfig
 from rescene_core.io import read_json, write_json_atomic
+from rescene_core.paths import SCENE_JSON, SCENE_MJCF, SIM_PICTURE, SIMCHECK
 from rescene_core.records import RoomShell
-
-SIM_DIR = "sim"
-"""The physics check's directory in a run."""
-SIMCHECK_FILE = "sim/simcheck.json"
-PICTURE_FILE = "sim/before_after.png"
-MJCF_FILE = "scene/mjcf/scene.xml"
-SCENE_JSON = "scene/scene.json"
-
-
-class SimcheckConfig(BaseModel):
-    """Settings of the physics check."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
-
-    seconds: float = 2.0
-    """Simulated time under gravity (s)."""
-    stable_translation: float = 0.02
-    """Largest centre-of-mass drift of a stable object (m)."""
-    stable_rotation_deg: float = 5.0
-    """Largest rotation of a stable object (deg)."""
-    escape_margin: float = 0.1
-    """How far outside the floor polygon an object's centre may end before it counts as escaped (m)."""
-    shake: bool = False
-    """Shake the room horizontally during the first ``shake_seconds``."""
-    shake_seconds: float = 1.0
-    """How long the shake lasts (s); the rest of ``seconds`` is settling."""
-    shake_accel: float = 3.0
-    """Peak horizontal acceleration of the shake (m/s^2)."""
-    shake_hz: tuple[float, float] = (2.0, 5.0)
-    """Frequencies of the two sinusoids of the shake (Hz)."""
-    seed: int = 0
-    """Seed of the shake's phases and directions."""
 
 
 @dataclass(frozen=True)
@@ -248,7 +217,7 @@ def simcheck_run(run_dir: str | Path, config: SimcheckConfig | None = None) -> S
     sim/simcheck.json and sim/before_after.png."""
     run_dir = Path(run_dir)
     config = config or SimcheckConfig()
-    mjcf = run_dir / MJCF_FILE
+    mjcf = run_dir / SCENE_MJCF
     if not mjcf.exists():
         raise FileNotFoundError(
             f"{mjcf} does not exist; export the scene first (`rescene export {run_dir}` or `rescene run`)"
@@ -258,6 +227,6 @@ def simcheck_run(run_dir: str | Path, config: SimcheckConfig | None = None) -> S
         doc = read_json(run_dir / SCENE_JSON)
         shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
     result, motion = simcheck(mjcf, shell, config)
-    write_json_atomic(run_dir / SIMCHECK_FILE, result.to_json())
-    draw_before_after(run_dir / PICTURE_FILE, result, motion, shell)
+    write_json_atomic(run_dir / SIMCHECK, result.to_json())
+    draw_before_after(run_dir / SIM_PICTURE, result, motion, shell)
     return result
