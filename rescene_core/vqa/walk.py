@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.geometry.camera import look_at
 from rescene_core.records import Camera
 from rescene_core.render import RenderedFrame, Renderer
 from rescene_core.vqa.config import VqaConfig
@@ -52,13 +53,8 @@ class AgentPose:
 
     def world_from_cam(self) -> NDArray[np.float64]:
         """Camera pose [4, 4], OpenCV axes (x right, y down, z forward), no roll."""
-        forward = self.heading()
-        right = np.cross(forward, [0.0, 0.0, 1.0])
-        right /= np.linalg.norm(right)
-        down = np.cross(forward, right)
-        out = np.eye(4)
-        out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = right, down, forward, self.eye
-        return out
+        eye = np.asarray(self.eye, np.float64)
+        return look_at(eye, eye + self.heading())
 
 
 def random_start(scene: VqaScene, config: VqaConfig, free, rng: np.random.Generator) -> AgentPose:
