@@ -194,7 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("capture", type=Path)
     p.add_argument("--out", type=Path, required=True, help="run directory")
     p.add_argument("--config", type=Path, help="YAML config (sections of RunConfig)")
-    p.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION[.SUB].FIELD=VALUE")
     p.add_argument("--runner", choices=["thread", "dask"], default="thread")
     p.add_argument("--address", help="Dask scheduler address for --runner dask")
     p.set_defaults(func=_cmd_run)
