@@ -81,10 +81,15 @@ class GeometricConfig(BaseModel):
     """Per frame, a segment's mask with fewer pixels is cleared."""
     support_min_height: float = 0.25
     """A horizontal top higher than this can carry objects that are split off its cluster (m)."""
+    support_span_fraction: float = 0.85
+    """A part above a top that spans this fraction of the top's width or depth is the piece's own back
+    (a chair's or sofa's back, a headboard) and stays with it."""
     support_band: float = 0.03
     """Points more than this above a support top stand on it (m)."""
-    structure_band: float = 0.08
-    """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)."""
+    structure_band: float = 0.06
+    """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
+    sliver_thickness: float = 0.03
+    """... when it is also thinner than this across the plane (5-95 percentile), unlike a monitor (m)."""
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
     seed: int = 0
@@ -108,8 +113,9 @@ class SegmentResult:
 
 def tsdf_mesh(
     rgb: NDArray[np.uint8], depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, cfg: GeometricConfig
-) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
-    """TSDF-fused surface: vertices [v, 3], faces [f, 3], vertex normals [v, 3] (world frame)."""
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """TSDF-fused surface: vertices [v, 3], faces [f, 3], vertex normals [v, 3] (world frame), vertex
+    colours [v, 3] in [0, 1]."""
     import open3d as o3d
 
     core = o3d.core
@@ -137,7 +143,8 @@ def tsdf_mesh(
         vbg.integrate(blocks, d, c, intr, intr, cam_from_world, 1.0, cfg.depth_trunc, cfg.sdf_trunc_voxels)
     mesh = vbg.extract_triangle_mesh(weight_threshold=cfg.tsdf_min_weight).to_legacy()
     mesh.compute_vertex_normals()
-    return np.asarray(mesh.vertices), np.asarray(mesh.triangles, np.int64), np.asarray(mesh.vertex_normals)
+    colors = np.asarray(mesh.vertex_colors) if mesh.has_vertex_colors() else np.zeros((len(mesh.vertices), 3))
+    return np.asarray(mesh.vertices), np.asarray(mesh.triangles, np.int64), np.asarray(mesh.vertex_normals), colors
 
 
 def _structure(
@@ -213,7 +220,8 @@ def _dbscan(points: NDArray, eps: float, min_points: int) -> NDArray[np.int64]:
 
 def _split_on_support(pts: NDArray, nrm: NDArray, cfg: GeometricConfig) -> list[NDArray[np.int64]]:
     """Indices of the parts of one cluster: the support (a table and what is under its top) first, then
-    each group of points standing on its top surface. A cluster with no large horizontal top is one part."""
+    each group of points standing on its top surface that is narrower than the top both ways (what spans
+    the top is the piece's own back). A cluster with no large horizontal top is one part."""
     up = nrm[:, 2] > np.cos(np.radians(cfg.vertical_tolerance_deg))
     high = up & (pts[:, 2] > cfg.support_min_height)
     if high.sum() < cfg.min_segment_points:
@@ -229,10 +237,13 @@ def _split_on_support(pts: NDArray, nrm: NDArray, cfg: GeometricConfig) -> list[
     if len(above) < cfg.min_segment_points:
         return [np.arange(len(pts))]
     lab = _dbscan(pts[above], cfg.cluster_eps, cfg.cluster_min_points)
+    on_top = up & (np.abs(pts[:, 2] - top) <= cfg.support_band)
+    top_span = np.ptp(pts[on_top, :2], axis=0) if on_top.sum() >= 2 else np.zeros(2)
     parts, taken = [], np.zeros(len(pts), bool)
     for c in range(lab.max() + 1 if len(lab) else 0):
         idx = above[lab == c]
-        if len(idx) >= cfg.min_segment_points:
+        spans = np.ptp(pts[idx, :2], axis=0) >= cfg.support_span_fraction * top_span
+        if len(idx) >= cfg.min_segment_points and not spans.any():
             parts.append(idx)
             taken[idx] = True
     if not parts:
@@ -265,9 +276,18 @@ def _clusters(
     stats["noise_points"] = int((lab < 0).sum())
     seg = np.zeros(len(thin), np.int64)
     nxt = 1
-    for c in range(lab.max() + 1 if len(lab) else 0):
-        stats["clusters"] += 1
-        members = np.flatnonzero(lab == c)
+    groups = [np.flatnonzero(lab == c) for c in range(lab.max() + 1 if len(lab) else 0)]
+    stats["clusters"] = len(groups)
+    while groups:
+        members = groups.pop()
+        ext = float(np.ptp(thin[members], axis=0).max())
+        if ext > cfg.max_segment_extent and len(members) >= 2 * cfg.min_segment_points:
+            # a cluster bigger than furniture is several objects bridged by a few points: cluster it tighter
+            sub = _dbscan(thin[members], cfg.cluster_eps * 0.5, cfg.cluster_min_points)
+            if sub.max(initial=-1) >= 1:
+                stats["resplit"] = stats.get("resplit", 0) + 1
+                groups += [members[sub == c] for c in range(sub.max() + 1)]
+                continue
         parts = _split_on_support(thin[members], tn[members], cfg)
         stats["split_off_supports"] += len(parts) - 1
         for part in parts:
@@ -308,7 +328,8 @@ def _absorb_structure(
                 dist = np.abs(p[:, 2] - plane["height"])
             else:
                 continue
-            if (dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction:
+            thick = float(np.subtract(*np.percentile(dist, [95, 5])))
+            if (dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction and thick < cfg.sliver_thickness:
                 struct[sel] = plane["id"]
                 clusters[sel] = 0
                 joined += 1
@@ -336,7 +357,7 @@ def segment_geometric(
 
     cfg = config or GeometricConfig()
     T, H, W = depth.shape
-    verts, faces, normals = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
+    verts, faces, normals, _ = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
     if len(faces) == 0:
         raise SegmentError("TSDF fusion produced no surface (no valid depth in range; check --depth-scale)")
     cams = np.asarray(world_from_cam)[:, :3, 3]
