@@ -709,26 +709,27 @@ class ExportConfig(_Section):
 
 
 class SimcheckConfig(_Section):
-    """Settings of the physics check."""
+    """Settings of the physics check (not in the paper: the project's choices)."""
 
     seconds: float = 2.0
-    """Simulated time under gravity (s)."""
+    """Simulated time under gravity (s). Default: the project's choice."""
     stable_translation: float = 0.02
-    """Largest centre-of-mass drift of a stable object (m)."""
+    """Largest centre-of-mass drift of a stable object (m). Default: the project's choice."""
     stable_rotation_deg: float = 5.0
-    """Largest rotation of a stable object (deg)."""
+    """Largest rotation of a stable object (deg). Default: the project's choice."""
     escape_margin: float = 0.1
-    """How far outside the floor polygon an object's centre may end before it counts as escaped (m)."""
+    """How far outside the floor polygon an object's centre may end before it counts as escaped (m).
+    Default: the project's choice."""
     shake: bool = False
-    """Shake the room horizontally during the first ``shake_seconds``."""
+    """Shake the room horizontally during the first ``shake_seconds``. Default: the project's choice."""
     shake_seconds: float = 1.0
-    """How long the shake lasts (s); the rest of ``seconds`` is settling."""
+    """How long the shake lasts (s); the rest of ``seconds`` is settling. Default: the project's choice."""
     shake_accel: float = 3.0
-    """Peak horizontal acceleration of the shake (m/s^2)."""
+    """Peak horizontal acceleration of the shake (m/s^2). Default: the project's choice."""
     shake_hz: tuple[float, float] = (2.0, 5.0)
-    """Frequencies of the two sinusoids of the shake (Hz)."""
+    """Frequencies of the two sinusoids of the shake (Hz). Default: the project's choice."""
     seed: int = 0
-    """Seed of the shake's phases and directions."""
+    """Seed of the shake's phases and directions. Default: the project's choice."""
 
 
 class RunConfig(_Section):
