@@ -117,3 +117,12 @@ def test_panoptic_labels_file_is_checked(tiny_scene, tmp_path):
     (src / "labels.json").unlink()
     with pytest.raises(ImportInputError, match=r"labels\.json is missing"):
         import_capture("panoptic", src, tmp_path / "o.zarr", NO_ALIGN)
+
+
+def test_panoptic_with_only_structure_is_an_empty_scene(tiny_scene, tmp_path):
+    src = write_panoptic(tiny_scene.arrays, tmp_path / "p")
+    table = json.loads((src / "labels.json").read_text())
+    (src / "labels.json").write_text(json.dumps([{**r, "structural": True} for r in table]))
+    with pytest.raises(ImportInputError, match="empty scene: no object instance"):
+        import_capture("panoptic", src, tmp_path / "o.zarr", NO_ALIGN)
+    assert not (tmp_path / "o.zarr").exists()
