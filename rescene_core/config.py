@@ -1,8 +1,11 @@
-"""Run configuration: one pydantic model per stage, defaults = the paper's appendix tables.
+"""Run configuration: one pydantic model per stage, defaults = the paper's appendix tables where it has them.
 
-``RunConfig`` is the single parameter of the flow. Each section's fields carry a one-line docstring
-naming where the value comes from. Sections are hashed separately (``section_hash``) so a changed
-registration parameter invalidates registration and what follows it, and nothing before it.
+``RunConfig`` is the single parameter of the flow. Sections nest (``assets.lift``, ``scenegraph.vlm`` /
+``geometric`` / ``fusion``); ``--set section.sub.field=value`` and config.yaml reach every level. Each
+field's docstring ends by saying whose default it is: "Default: the paper's (<table or appendix>)" or
+"Default: the project's choice" (tests/test_config.py checks every field). Sections are hashed separately
+(``section_hash``) so a changed registration parameter invalidates registration and what follows it,
+and nothing before it.
 """
 
 from __future__ import annotations
