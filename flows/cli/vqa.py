@@ -12,7 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-ACTIONS = ("generate", "build", "eval")
+ACTIONS = ("generate", "build", "eval", "faithfulness")
 
 
 def _generate_parser() -> argparse.ArgumentParser:
@@ -57,6 +57,43 @@ def _eval_parser() -> argparse.ArgumentParser:
     p.add_argument("--limit", type=int, help="ask only the first N questions")
     p.add_argument("--out", type=Path, help="result JSON (default DS/eval/<model>.json, and .md beside it)")
     return p
+
+
+def _faithfulness_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="rescene vqa faithfulness",
+        description="questions from a run answered on its capture's ground truth: how often they agree",
+    )
+    p.add_argument("run", type=Path, help="run directory written by `rescene run`")
+    p.add_argument("capture", type=Path, help="the run's capture, with ground truth (gt/)")
+    p.add_argument("--steps", type=int, default=24, help="actions (captures) of the walk")
+    p.add_argument("--per-category", type=int, default=60)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", type=Path, help="also write the result here")
+    return p
+
+
+def _cmd_faithfulness(args: argparse.Namespace) -> int:
+    from rescene_core.io import write_json_atomic
+    from rescene_core.vqa import VqaConfig
+    from rescene_core.vqa.oracle import run_faithfulness
+
+    config = VqaConfig(sampling="walk", walk_steps=args.steps, per_category=args.per_category, seed=args.seed)
+    result = run_faithfulness(args.run, args.capture, config)
+    print(
+        f"{result['questions']} questions from {args.run} ({result['objects']['run']} objects; ground truth "
+        f"{result['objects']['ground_truth']}): agree {result['agree']}, disagree {result['disagree']}, "
+        f"unanswerable {result['unanswerable']} -> agreement {result['agreement']:.3f}"
+    )
+    for task, row in sorted(result["per_task"].items()):
+        n = sum(row.values())
+        print(
+            f"  {task:<22} {row['agree']:>4} / {n:<4} agree  ({row['disagree']} disagree, {row['unanswerable']} unanswerable)"
+        )
+    print(f"ground-truth questions answered on the ground truth: {result['gt_self']:.3f}")
+    if args.json:
+        write_json_atomic(args.json, result)
+    return 0
 
 
 def _cmd_generate(args: argparse.Namespace) -> int:
@@ -169,9 +206,16 @@ def _cmd_vqa(args: argparse.Namespace) -> int:
         action = rest.pop(0)
     else:
         action = "generate"
-    parser = {"generate": _generate_parser, "build": _build_parser, "eval": _eval_parser}[action]()
-    sub_args = parser.parse_args(rest)
-    func = {"generate": _cmd_generate, "build": _cmd_build, "eval": _cmd_eval}[action]
+    parsers = {
+        "generate": _generate_parser,
+        "build": _build_parser,
+        "eval": _eval_parser,
+        "faithfulness": _faithfulness_parser,
+    }
+    sub_args = parsers[action]().parse_args(rest)
+    func = {"generate": _cmd_generate, "build": _cmd_build, "eval": _cmd_eval, "faithfulness": _cmd_faithfulness}[
+        action
+    ]
     try:
         return func(sub_args)
     except VqaInputError as err:
@@ -182,9 +226,10 @@ def _cmd_vqa(args: argparse.Namespace) -> int:
 def register(sub) -> None:
     p = sub.add_parser(
         "vqa",
-        help="embodied VQA: generate RUN | build SOURCE... --out DS | eval DS --endpoint URL --model NAME",
+        help="embodied VQA: generate RUN | build SOURCE... --out DS | eval DS --endpoint URL --model NAME | "
+        "faithfulness RUN CAPTURE",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("rest", nargs=argparse.REMAINDER, help="generate|build|eval and its arguments (or RUN)")
+    p.add_argument("rest", nargs=argparse.REMAINDER, help="generate|build|eval|faithfulness and its arguments (or RUN)")
     p.set_defaults(func=_cmd_vqa)

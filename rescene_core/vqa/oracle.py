@@ -72,9 +72,16 @@ def _one(true: Iterable[str], choices: tuple[str, ...]) -> str | None:
 
 
 def answer_on(
-    item: VqaItem, scene: VqaScene, config: VqaConfig | None = None, renderer: Renderer | None = None
+    item: VqaItem,
+    scene: VqaScene,
+    config: VqaConfig | None = None,
+    renderer: Renderer | None = None,
+    views: dict[str, tuple[dict[int, int], int]] | None = None,
 ) -> str | None:
-    """The choice of ``item`` that is true in ``scene``, or None when the question cannot be answered there."""
+    """The choice of ``item`` that is true in ``scene``, or None when the question cannot be answered there.
+
+    views: a cache of the fresh renders (view id -> visible objects, centre id) shared by the questions of
+    one scene's views."""
     config = config or VqaConfig()
     s = _Scene(scene)
     ids = [int(i) for i in item.object_ids]
@@ -85,10 +92,15 @@ def answer_on(
     vp = None if item.viewpoint is None else Viewpoint.from_json(item.viewpoint)
     visible, centre = ({}, 0) if vp is None else (vp.visible, vp.center_id)
     if vp is not None and renderer is not None:
-        frame = renderer.render(vp.camera)
-        visible = visible_objects(frame.ids, config.min_visible_pixels)
-        h, w = frame.ids.shape
-        centre = max(int(frame.ids[h // 2, w // 2]), 0)
+        if views is None or vp.id not in views:
+            frame = renderer.render(vp.camera)
+            h, w = frame.ids.shape
+            seen = (visible_objects(frame.ids, config.min_visible_pixels), max(int(frame.ids[h // 2, w // 2]), 0))
+            if views is not None:
+                views[vp.id] = seen
+        else:
+            seen = views[vp.id]
+        visible, centre = seen
     t = item.template
     edges = config.distance_band_edges
 
@@ -196,13 +208,46 @@ def agreement(
     """How many questions (generated from a pipeline's scene) have the same answer in ``gt_scene``.
 
     Returns {"questions", "agree", "disagree", "unanswerable" (no single true choice in the ground truth, or
-    a referred object is not in it), "agreement" (agree / questions), "per_template": {template: {...}}}."""
+    a referred object is not in it), "agreement" (agree / questions), "per_template" and "per_task":
+    {name: {"agree", "disagree", "unanswerable"}}}. View questions re-render each view once."""
     rows: dict[str, dict[str, int]] = {}
+    tasks: dict[str, dict[str, int]] = {}
     total = {"agree": 0, "disagree": 0, "unanswerable": 0}
+    views: dict[str, tuple[dict[int, int], int]] = {}
     for item in items:
-        got = answer_on(item, gt_scene, config, renderer)
+        got = answer_on(item, gt_scene, config, renderer, views)
         key = "unanswerable" if got is None else ("agree" if got == item.answer else "disagree")
         total[key] += 1
         rows.setdefault(item.template, {"agree": 0, "disagree": 0, "unanswerable": 0})[key] += 1
+        tasks.setdefault(item.task.value, {"agree": 0, "disagree": 0, "unanswerable": 0})[key] += 1
     n = sum(total.values())
-    return {"questions": n, **total, "agreement": total["agree"] / n if n else None, "per_template": rows}
+    return {
+        "questions": n,
+        **total,
+        "agreement": total["agree"] / n if n else None,
+        "per_template": rows,
+        "per_task": tasks,
+    }
+
+
+def run_faithfulness(run_dir, capture, config: VqaConfig | None = None) -> dict[str, Any]:
+    """Generate questions from an assembled run and answer them on its capture's ground truth (``agreement``,
+    view questions on fresh renders of the ground truth), with the agreement per Table 4 task type.
+
+    Also checks the ground truth against itself: questions generated from it must all agree (``gt_self``)."""
+    from rescene_core.vqa.build import scene_source
+    from rescene_core.vqa.dataset import build_vqa
+    from rescene_core.vqa.render import make_renderer
+    from rescene_core.vqa.scene import read_run
+
+    config = config or VqaConfig(sampling="walk")
+    run_scene = read_run(run_dir)
+    gt_scene = scene_source(str(capture)).load()
+    renderer = make_renderer(gt_scene, config)
+    result = agreement(build_vqa(run_scene, config).items, gt_scene, config, renderer)
+    own = build_vqa(gt_scene, config).items
+    return {
+        **result,
+        "objects": {"run": len(run_scene.objects), "ground_truth": len(gt_scene.objects)},
+        "gt_self": agreement(own, gt_scene, config, renderer)["agreement"],
+    }

@@ -139,3 +139,32 @@ def test_ground_truth_scene_gives_every_category(tiny_gt):
     counts = dataset.summary["counts"]
     assert all(counts[c] > 0 for c in ("object_recognition", "relative_position", "support_relation"))
     assert counts["attachment_relation"] > 0 and counts["multi_hop"] > 0
+
+
+@pytest.mark.slow  # a tiny capture is written, then four scenes are walked and rendered
+def test_faithfulness_of_a_run_against_its_capture(tmp_path, capsys):
+    """A run that is its capture's ground truth agrees on every question; a wrong label makes it disagree."""
+    from rescene_core.capture import open_capture
+    from rescene_core.capture.ground_truth import read_ground_truth
+    from rescene_core.capture.synth import write_synth
+
+    capture = write_synth(tmp_path / "room.zarr", "tiny", seed=0)
+    run = tmp_path / "run"
+    write_run_from_gt(read_ground_truth(open_capture(capture)), run)
+    args = ["vqa", "faithfulness", str(run), str(capture), "--steps", "8", "--per-category", "10"]
+    args += ["--json", str(tmp_path / "f.json")]
+    assert main(args) == 0
+    result = json.loads((tmp_path / "f.json").read_text())
+    assert result["questions"] > 10 and result["agreement"] == 1.0 and result["gt_self"] == 1.0
+    assert "agreement 1.000" in capsys.readouterr().out
+    scene_json = run / "scene" / "scene.json"
+    doc = json.loads(scene_json.read_text())
+    counts = {}
+    for o in doc["objects"]:
+        counts[o["label"]] = counts.get(o["label"], 0) + 1
+    victim = next(o for o in doc["objects"] if counts[o["label"]] == 1)
+    victim["label"] = "aquarium"
+    scene_json.write_text(json.dumps(doc))
+    assert main(args) == 0
+    result = json.loads((tmp_path / "f.json").read_text())
+    assert result["disagree"] + result["unanswerable"] > 0 and result["agreement"] < 1.0
