@@ -50,8 +50,13 @@ def _bind(task_, run: RunPaths):
 
 
 @flow(name="rescene", description="Multi-view capture -> simulation-ready object-level scene (ReScene).")
-def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict[str, Any]:
-    """Run ReScene on ``capture`` (a capture .zarr) into ``run_dir`` with ``config`` (defaults: the paper)."""
+def rescene(
+    capture: str, run_dir: str, config: RunConfig | None = None, verify_capture: str = "stamp"
+) -> dict[str, Any]:
+    """Run ReScene on ``capture`` (a capture .zarr) into ``run_dir`` with ``config`` (defaults: the paper).
+
+    ``verify_capture``: "stamp" checks the capture's identity stamp cheaply (sizes, files modified
+    since it was written); "full" rehashes every byte against it (tasks/common.py ``capture_ref``)."""
     config = config or RunConfig()
     export_config = config.export
     logger = get_run_logger()
@@ -64,7 +69,7 @@ def rescene(capture: str, run_dir: str, config: RunConfig | None = None) -> dict
     flow_log = Segment(run.root, "flow")
     flow_log.log("/flow/events", {"event": "start", "flow_run_id": flow_run_id, "details": {"capture": capture}})
 
-    capture_in = capture_ref(capture)
+    capture_in = capture_ref(capture, verify_capture)
     # validation is cached on the capture's content hash: a bad capture fails here with every problem
     # listed; an unchanged one is not re-read
     _bind(scene_tasks.validate_capture, run)(capture_in)
@@ -217,6 +222,7 @@ def run_flow(
     config: RunConfig | None = None,
     runner: str = "thread",
     address: str | None = None,
+    verify_capture: str = "stamp",
 ) -> State:
     """Run the flow in this process (Prefect's embedded mode when no server is configured); returns its state."""
     flow_ = rescene
@@ -226,4 +232,10 @@ def run_flow(
         flow_ = rescene.with_options(task_runner=DaskTaskRunner(address=address) if address else DaskTaskRunner())
     elif runner != "thread":
         raise ValueError(f"unknown runner {runner!r}; use 'thread' or 'dask'")
-    return flow_(capture=str(capture), run_dir=str(run_dir), config=config or RunConfig(), return_state=True)
+    return flow_(
+        capture=str(capture),
+        run_dir=str(run_dir),
+        config=config or RunConfig(),
+        verify_capture=verify_capture,
+        return_state=True,
+    )

@@ -27,7 +27,8 @@ from prefect.context import TaskRunContext
 from pydantic import BaseModel
 
 from rescene_core import paths
-from rescene_core.io import hash_file, hash_tree, write_json_atomic
+from rescene_core.capture.identity import capture_identity
+from rescene_core.io import hash_file, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import Missing, Ref, RefStatus, Stage
 from rescene_core.runlog import Segment
@@ -113,10 +114,24 @@ def make_ref(
     )
 
 
-def capture_ref(capture: str | Path) -> Ref:
-    """Reference to the capture (outside the run directory): absolute path and the Zarr store's content hash."""
+VERIFY_CAPTURE = ("stamp", "full")
+"""How a run establishes the capture's content hash: "stamp" (default: the identity stamped into the
+capture when it was written, checked by file sizes and by rehashing only files modified since) or
+"full" (every byte rehashed against the stamp). An unstamped capture is hashed whole either way."""
+
+
+def capture_ref(capture: str | Path, verify: str = "stamp") -> Ref:
+    """Reference to the capture (outside the run directory): absolute path and its content hash.
+
+    The hash is the capture's identity stamp (``rescene_core.capture.identity``), verified as ``verify``
+    says; ``detail`` records how (``verification``, ``rehashed_files``). Raises CaptureChangedError when
+    the capture changed in place since it was written."""
+    if verify not in VERIFY_CAPTURE:
+        raise ValueError(f"verify_capture={verify!r}: use one of {', '.join(VERIFY_CAPTURE)}")
     path = Path(capture).resolve()
-    return Ref(kind="capture", path=str(path), sha256=hash_tree(path))
+    ident = capture_identity(path, full=verify == "full")
+    detail = {"verification": ident.verification, "rehashed_files": ident.rehashed_files}
+    return Ref(kind="capture", path=str(path), sha256=ident.content_hash, detail=detail)
 
 
 def digest(value: Any) -> Any:
@@ -140,9 +155,15 @@ def digest(value: Any) -> Any:
     raise TypeError(f"task input of type {type(value).__name__} cannot be part of a cache key; pass a reference")
 
 
+LOCATION_INPUTS = frozenset({"run_dir"})
+"""Task inputs that say where a run lives, not what it computes: left out of cache keys, so a run
+directory that moved (or is mounted elsewhere) keeps its cache."""
+
+
 @dataclass
 class StageInputs(CachePolicy):
-    """Cache key = stage name + code version of the stage + digest of the inputs (see ``digest``)."""
+    """Cache key = stage name + code version of the stage + digest of the inputs (see ``digest``),
+    the run directory's location (``LOCATION_INPUTS``) excluded."""
 
     stage: Stage = Stage.VALIDATE
 
@@ -150,7 +171,12 @@ class StageInputs(CachePolicy):
         self, task_ctx: TaskRunContext, inputs: dict[str, Any], flow_parameters: dict[str, Any], **kwargs: Any
     ) -> str | None:
         blob = json.dumps(
-            {"stage": self.stage, "code": code_version(self.stage), "inputs": digest(inputs)}, sort_keys=True
+            {
+                "stage": self.stage,
+                "code": code_version(self.stage),
+                "inputs": digest({k: v for k, v in inputs.items() if k not in LOCATION_INPUTS}),
+            },
+            sort_keys=True,
         )
         return f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
 
