@@ -701,7 +701,7 @@ class ExportConfig(_Section):
     coacd_max_faces: int = 2000
     """Meshes with more faces are simplified (quadric decimation) to this many before CoACD.
     Default: the project's choice."""
-    coacd_timeout_s: float = 60.0
+    coacd_timeout_s: float = 180.0
     """Time limit of one object's CoACD run (s); past it the object gets its convex hull.
     Default: the project's choice."""
     decomposition_workers: int = 2

@@ -44,7 +44,7 @@ class DecompositionSettings:
     threshold: float = 0.05
     max_pieces: int = 12
     max_faces: int = 2000
-    timeout_s: float = 60.0
+    timeout_s: float = 180.0
     workers: int = 2
     cache_dir: str | None = None
 
@@ -230,6 +230,7 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
         return hit
     notes: list[str] = []
     pieces: list[tuple[NDArray, NDArray]] = []
+    timed_out = False
     if problems:
         notes.append(f"convex hull instead of CoACD: {'; '.join(problems)}")
     else:
@@ -240,6 +241,7 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
             if not pieces:
                 notes.append("convex hull instead of CoACD: it returned no solid piece")
         except subprocess.TimeoutExpired:
+            timed_out = True
             notes.append(f"convex hull instead of CoACD: no result within {settings.timeout_s:g} s")
         except (RuntimeError, OSError, ValueError) as err:
             notes.append(f"convex hull instead of CoACD: {err}")
@@ -248,10 +250,11 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
         hull, method, more = hull_pieces(v)
         pieces, notes = list(hull), notes + more
     dec = Decomposition(tuple(pieces), method, round(time.perf_counter() - start, 3), False, tuple(notes))
-    try:
-        _save(entry, dec)
-    except OSError:  # a read-only cache only costs time
-        pass
+    if not timed_out:  # a time-out depends on the machine's load: the next export tries again
+        try:
+            _save(entry, dec)
+        except OSError:  # a read-only cache only costs time
+            pass
     return dec
 
 
