@@ -2,8 +2,9 @@
 
 Order: room shell; per instance ``.map`` over view selection -> asset -> registration; key frames and
 per-key-frame relation inference (independent of the instances, so they run alongside them); fan-in
-to fusion (which needs the missing instances), attachment, export, and evaluation when the capture has
-ground truth. Every task's result is a reference cached on its inputs' content hashes (tasks/common.py).
+to fusion (which needs the missing instances), attachment, export, and the evaluation of every run
+(against ground truth and the sensor's depth when the capture has them). Every task's result is a
+reference cached on its inputs' content hashes (tasks/common.py).
 
 An instance whose task still fails after its retries is recorded as Missing; the scene is assembled
 from the rest and the flow run ends Failed with a message naming the instances, so that retrying the
@@ -167,8 +168,7 @@ def rescene(
         scene_level += [(Stage.FUSION, graph_f), (Stage.ATTACHMENT, layout_f), (Stage.EXPORT, scene_f)]
         if config.export.simulation:  # the physics check of the MJCF the export wrote
             scene_level.append((Stage.SIMCHECK, simcheck_t.submit(str(run.root), scene_f, config.sim)))
-        if cap.has_gt:
-            scene_level.append((Stage.EVALUATION, evaluate_t.submit(str(run.root), capture_in, scene_f)))
+        scene_level.append((Stage.EVALUATION, evaluate_t.submit(str(run.root), capture_in, scene_f, keyframes_f)))
         wait([f for _, f in scene_level])
         for stage, fut in scene_level:
             stage_rows.append(state_row(stage, None, fut))

@@ -256,8 +256,10 @@ def simcheck(run_dir: str, scene: Ref, config: SimcheckConfig) -> Ref:
 
 
 @stage_task(Stage.EVALUATION)
-def evaluate(run_dir: str, capture: Ref, scene: Ref) -> Ref:
-    """Metrics against the capture's ground truth -> eval/metrics.json and eval/report.md."""
+def evaluate(run_dir: str, capture: Ref, scene: Ref, keyframes: Ref | None = None, physics: Ref | None = None) -> Ref:
+    """Every metric the run allows (structural, geometry and rendering against the sensor's depth and the
+    ground truth when the capture has them, the physics check's results) -> eval/metrics.json, report.md,
+    report.html. ``keyframes`` and ``physics`` (sim/simcheck.json) are inputs so the cache sees them."""
     run = RunPaths(run_dir)
     with executing(run_dir, Stage.EVALUATION) as seg:
         metrics = evaluate_run(run_dir, capture.path)

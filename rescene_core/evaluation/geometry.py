@@ -79,6 +79,12 @@ class PointSet:
     def __len__(self) -> int:
         return len(self.points)
 
+    def labelled(self, keep: Any) -> PointSet:
+        """The points whose label passes ``keep`` (a function of the label array); none without labels."""
+        if self.labels is None:
+            return self.select(np.zeros(len(self), bool))
+        return self.select(keep(self.labels))
+
     def select(self, mask: NDArray[np.bool_]) -> PointSet:
         return PointSet(
             self.points[mask],
@@ -90,7 +96,7 @@ class PointSet:
     def concatenate(sets: Sequence[PointSet]) -> PointSet:
         sets = [s for s in sets if len(s)]
         if not sets:
-            return PointSet(np.zeros((0, 3)))
+            return PointSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
         normals = None if any(s.normals is None for s in sets) else np.concatenate([s.normals for s in sets])
         labels = None if any(s.labels is None for s in sets) else np.concatenate([s.labels for s in sets])
         return PointSet(np.concatenate([s.points for s in sets]), normals, labels)
@@ -298,7 +304,9 @@ def per_label(
     for p, refs in pairs.items():
         refs = list(refs)
         out[int(p)] = point_metrics(
-            pred_d.select(pred_d.labels == p), ref_d.select(np.isin(ref_d.labels, refs)), config.thresholds
+            pred_d.labelled(lambda lab, p=p: lab == p),
+            ref_d.labelled(lambda lab, refs=refs: np.isin(lab, refs)),
+            config.thresholds,
         )
     return out
 
@@ -382,8 +390,8 @@ def geometry_metrics(
             gt_shell = {-(k + 1): m for k, (_, m) in enumerate(sorted(shell_meshes(gt.shell, ExportConfig()).items()))}
             gt_sampled = sample_meshes(gt_meshes, config)
             gt_refused = refuse({**gt_meshes, **gt_shell}, cameras, config)
-            pred_obj = pred_refused.select(pred_refused.labels > 0)
-            gt_obj = gt_refused.select(gt_refused.labels > 0)
+            pred_obj = pred_refused.labelled(lambda lab: lab > 0)
+            gt_obj = gt_refused.labelled(lambda lab: lab > 0)
             pairs = {i: [obj_of[i]] for i in pred_meshes if i in obj_of}
             refused_rows = per_label(pred_obj, gt_obj, pairs, config)
             sampled_rows = per_label(pred_sampled, gt_sampled, pairs, config)
@@ -412,8 +420,8 @@ def geometry_metrics(
     else:
         sensor = sensor_reference(capture, config)
         objects = {int(i.id) for i in capture.object_instances}
-        ref_obj = sensor.select(np.isin(sensor.labels, list(objects)))
-        pred_obj = pred_refused.select(pred_refused.labels > 0)
+        ref_obj = sensor.labelled(lambda lab: np.isin(lab, list(objects)))
+        pred_obj = pred_refused.labelled(lambda lab: lab > 0)
         rows_by = per_label(pred_obj, ref_obj, {i: [i] for i in pred_meshes}, config)
         rows = [{"instance": i, "label": labels[i], "refused": rows_by[i]} for i in sorted(pred_meshes)]
         out["sensor"] = {

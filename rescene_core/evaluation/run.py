@@ -96,7 +96,7 @@ def evaluate_run(
 
     config = config or EvaluationConfig()
     run_dir = Path(run_dir)
-    started = time.perf_counter()
+    started, started_cpu = time.perf_counter(), time.process_time()
     timings: dict[str, float] = {}
     not_computed: dict[str, str] = {}
     try:
@@ -145,7 +145,7 @@ def evaluate_run(
             for o in doc["objects"]
             if o.get("registered_world_from_asset") is not None
         }
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         if shell is None:
             not_computed["structural"] = "scene.json has no room shell"
         elif not doc["objects"]:
@@ -166,6 +166,7 @@ def evaluate_run(
             }
             metrics["structural"] = structural_metrics(objs, final, graph, shell, registered=registered or None)
         timings["structural"] = time.perf_counter() - t0
+        timings["structural_cpu"] = time.process_time() - c0
 
     gt = None
     if cap is not None:
@@ -175,10 +176,11 @@ def evaluate_run(
         elif doc is not None:
             from rescene_core.evaluation.ground_truth import gt_metrics
 
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
             metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
             timings["ground_truth"] = time.perf_counter() - t0
+            timings["ground_truth_cpu"] = time.process_time() - c0
 
     placed = placed_meshes(doc) if doc is not None else {}
     shell_geometry = {}
@@ -190,18 +192,20 @@ def evaluate_run(
         from rescene_core.evaluation.geometry import geometry_metrics
         from rescene_core.evaluation.rendering import rendering_metrics
 
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         metrics["geometry"] = geometry_metrics(placed, shell_geometry, cap, gt, config.geometry)
         timings["geometry"] = time.perf_counter() - t0
+        timings["geometry_cpu"] = time.process_time() - c0
         key_frames = None
         kf_path = RunPaths(run_dir).keyframes
         if kf_path.exists():
             key_frames = [int(t) for t in read_json(kf_path).get("frames", [])]
         else:
             not_computed["key_frames"] = "no keyframes.json: rendering is compared on every frame"
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         metrics["rendering"] = rendering_metrics(placed, shell_geometry, cap, key_frames, config.rendering)
         timings["rendering"] = time.perf_counter() - t0
+        timings["rendering_cpu"] = time.process_time() - c0
 
     physics = RunPaths(run_dir).simcheck
     if physics.exists():
@@ -215,9 +219,10 @@ def evaluate_run(
     if doc is not None and cap is not None:
         from rescene_core.evaluation.judge import judge_run
 
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         metrics["judge"] = judge_run(run_dir, placed, shell_geometry, cap, config.judge)
         timings["judge"] = time.perf_counter() - t0
+        timings["judge_cpu"] = time.process_time() - c0
     for section in ("geometry", "rendering"):
         for key, reason in metrics.get(section, {}).get("not_computed", {}).items():
             not_computed[f"{section}.{key}"] = reason
@@ -225,6 +230,7 @@ def evaluate_run(
     if judge.get("status") != "ok":
         not_computed["judge"] = judge.get("reason", not_computed.get("judge", "not run"))
     timings["total_excluding_judge"] = time.perf_counter() - started - timings.get("judge", 0.0)
+    timings["total_excluding_judge_cpu"] = time.process_time() - started_cpu - timings.get("judge_cpu", 0.0)
     metrics["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     metrics["not_computed"] = not_computed
     metrics["summary"] = _summary(metrics)
