@@ -15,7 +15,7 @@ PREFECT_API_URL ?= http://127.0.0.1:4200/api
 POOL ?= rescene-local
 
 .DEFAULT_GOAL := help
-.PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server worker deploy clean
+.PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server worker deploy deploy-script clean
 
 help: ## list the targets
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -78,7 +78,11 @@ worker: $(STAMP) ## start a process worker on the local pool
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect worker start --pool $(POOL)
 
-deploy: $(STAMP) ## register the rescene/scene and split deployments with the server
+deploy: $(STAMP) ## register the rescene/scene and split deployments with the server (prefect deploy)
+	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
+	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect --no-prompt deploy --all --prefect-file deployments/prefect.yaml
+
+deploy-script: $(STAMP) ## the same deployments through the Python API (fallback for make deploy)
 	PREFECT_API_URL=$(PREFECT_API_URL) $(PY) deployments/deploy.py --prefect-file deployments/prefect.yaml
 
 clean: ## remove demo and benchmark outputs (keeps .venv)

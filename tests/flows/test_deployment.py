@@ -44,22 +44,6 @@ def _wait_healthy(url: str, server: subprocess.Popen, timeout: float = 180) -> N
     raise AssertionError(f"prefect server at {url} did not become healthy in {timeout} s")
 
 
-def test_read_split_and_scene_done(tmp_path):
-    from flows.split import read_split, scene_done
-
-    split = tmp_path / "split.txt"
-    split.write_text("# nightly\n\na.zarr\n/abs/b.zarr\n")
-    assert read_split(split) == [(tmp_path / "a.zarr").resolve(), Path("/abs/b.zarr")]
-    run = tmp_path / "runs" / "a"
-    assert not scene_done(run, tmp_path / "a.zarr")
-    run.mkdir(parents=True)
-    manifest = {"state": "Completed", "capture": {"path": str((tmp_path / "a.zarr").resolve())}}
-    (run / "manifest.json").write_text(json.dumps(manifest))
-    assert scene_done(run, tmp_path / "a.zarr")
-    (run / "manifest.json").write_text(json.dumps({**manifest, "state": "Failed"}))
-    assert not scene_done(run, tmp_path / "a.zarr")
-
-
 @pytest.mark.slow
 @pytest.mark.timeout(1500)
 def test_deployment_run_on_local_server(tmp_path):

@@ -1,0 +1,108 @@
+"""The split flow: the split file format, skip-if-done on capture content + config + code, a missing
+capture failing only its scene, the summary table, and idempotent reruns (scenes run in process)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from flows.split import SplitFileError, done_reason, read_split, read_split_entries, scene_done
+from rescene_core.config import RunConfig
+from tasks.common import capture_ref
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_split_file_format(tmp_path):
+    split = tmp_path / "split.txt"
+    split.write_text("# nightly\n\na.zarr\n/abs/b.zarr  bee   # a comment\n")
+    entries = read_split_entries(split)
+    assert [(e.capture, e.name) for e in entries] == [
+        ((tmp_path / "a.zarr").resolve(), "a"),
+        (Path("/abs/b.zarr"), "bee"),
+    ]
+    assert read_split(split) == [(tmp_path / "a.zarr").resolve(), Path("/abs/b.zarr")]
+    split.write_text("a.zarr\nother/a.zarr\n")
+    with pytest.raises(SplitFileError, match="line 1; give one a NAME"):
+        read_split_entries(split)
+    split.write_text("a.zarr x y\n")
+    with pytest.raises(SplitFileError, match=r"split.txt:1: 3 fields"):
+        read_split_entries(split)
+    with pytest.raises(SplitFileError, match="does not exist"):
+        read_split_entries(tmp_path / "none.txt")
+
+
+def test_example_split_reads():
+    entries = read_split_entries(REPO / "deployments" / "splits" / "nightly.txt")
+    assert entries and all(e.capture.is_absolute() for e in entries)
+
+
+def test_done_reason(box_capture_path, tmp_path):
+    from tasks.stages import STAGE_MODULES, code_version
+
+    run = tmp_path / "run"
+    sha = capture_ref(box_capture_path).sha256
+    config = RunConfig()
+    assert done_reason(run, sha, config) == "no manifest"
+    run.mkdir()
+    manifest = {
+        "state": "Completed",
+        "capture": {"sha256": sha},
+        "config_hashes": {s: config.section_hash(s) for s in RunConfig.model_fields},
+        "code_version": {"stages": {str(s): code_version(s) for s in STAGE_MODULES}},
+    }
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    assert done_reason(run, sha, config) is None and scene_done(run, box_capture_path)
+    assert done_reason(run, "0" * 64, config) == "capture content changed"
+    assert done_reason(run, sha, config.with_overrides(["registration.scale_max=1.2"])) == "config changed"
+    (run / "manifest.json").write_text(json.dumps({**manifest, "code_version": {"stages": {}}}))
+    assert done_reason(run, sha, config) == "code changed"
+    (run / "manifest.json").write_text(json.dumps({**manifest, "state": "Failed"}))
+    assert done_reason(run, sha, config) == "last run Failed"
+
+
+def test_split_runs_skips_and_reports(prefect_server, fake_stages, box_capture_path, tmp_path):
+    from flows.split import rescene_split
+
+    other = shutil.copytree(box_capture_path, tmp_path / "other.zarr")
+    split = tmp_path / "mini.txt"
+    split.write_text(f"{box_capture_path} boxes\nother.zarr\nmissing.zarr\n")
+    out = tmp_path / "runs"
+    state = rescene_split(str(split), str(out), deployment=None, return_state=True)
+    assert state.is_failed() and "missing (Failed: capture not found" in state.message
+    rows = pq.read_table(out / "mini_summary.parquet").to_pylist()
+    assert [(r["scene"], r["state"], r["skipped"]) for r in rows] == [
+        ("boxes", "Completed", False),
+        ("other", "Completed", False),
+        ("missing", "Failed", False),
+    ]
+    assert rows[0]["instances"] == 3 and rows[2]["message"] == f"capture not found: {tmp_path / 'missing.zarr'}"
+    md = (out / "mini_summary.md").read_text()
+    assert "3 scenes: 2 completed (0 skipped as done), 1 failed, 0 timed out" in md and "| missing | Failed |" in md
+    assert fake_stages["asset"] == 6
+
+    # rerun (as after a crash): the done scenes are skipped without running a stage
+    fake_stages.clear()
+    (out / "other" / "manifest.json").unlink()  # as if the process died before 'other' finished
+    state = rescene_split(str(split), str(out), deployment=None, return_state=True)
+    rows = pq.read_table(out / "mini_summary.parquet").to_pylist()
+    assert [(r["scene"], r["state"], r["skipped"]) for r in rows] == [
+        ("boxes", "Completed", True),
+        ("other", "Completed", False),
+        ("missing", "Failed", False),
+    ]
+    assert sum(fake_stages.values()) == 0, dict(fake_stages)  # 'other' ran again, every task from the cache
+    assert other.exists()
+
+    # a changed config is not done
+    fake_stages.clear()
+    config = RunConfig().with_overrides(["registration.scale_max=1.2"])
+    split.write_text(f"{box_capture_path} boxes\n")
+    state = rescene_split(str(split), str(out), deployment=None, config=config, return_state=True)
+    assert state.is_completed(), state.message
+    assert pq.read_table(out / "mini_summary.parquet").to_pylist()[0]["skipped"] is False
+    assert fake_stages["registration"] == 3
