@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from rescene_core.records import Edge, Root
+from rescene_core.records import Edge
 from rescene_core.vqa.config import VqaConfig
-from rescene_core.vqa.items import EXTRA_LABELS, FLOOR_ANSWER, Category, Filter, wall_direction
-from rescene_core.vqa.references import object_references
+from rescene_core.vqa.items import EXTRA_LABELS, Category, Filter, wall_direction
+from rescene_core.vqa.references import far_enough, is_confident, object_references, parent_label
 from rescene_core.vqa.render import Viewpoint
 from rescene_core.vqa.scene import VqaScene, edge_parent_id
 
@@ -60,7 +60,7 @@ class QuestionContext:
         self.walls = {w.id: w for w in scene.shell.walls}
         self.wall_names = {w.id: wall_direction(w) for w in scene.shell.walls}
         self.wall_name_counts = Counter(self.wall_names.values())
-        self.refs = object_references(self)
+        self.refs = object_references(scene, self.edges, config)
         self.unique = set(self.refs)
 
     def by_support(self, oid: int) -> bool:
@@ -75,7 +75,7 @@ class QuestionContext:
         return self.obj[oid].label
 
     def confident(self, e: Edge) -> bool:
-        return float(e.confidence) >= self.config.min_confidence
+        return is_confident(e, self.config.min_confidence)
 
     def pick_confident(self, cat: Category, edges: list[Edge]) -> Edge | None:
         """A random edge of ``edges`` at or above the confidence threshold; None (and a recorded
@@ -99,8 +99,7 @@ class QuestionContext:
         return pick, ans, self.choices(ans, self.labels, exclude)
 
     def parent_label(self, e: Edge) -> str:
-        pid = edge_parent_id(e)
-        return FLOOR_ANSWER if pid is None and e.parent == Root.FLOOR else ("wall" if pid is None else self.label(pid))
+        return parent_label(e, self.obj)
 
     def drop(self, cat: Category, reason: Filter) -> None:
         self.filtered[cat][reason.value] += 1
@@ -163,7 +162,7 @@ class QuestionContext:
         return self.shuffle([labels[j] for j in order])
 
     def far_enough(self, d1: float, d2: float) -> bool:
-        return abs(d1 - d2) >= self.config.distance_margin * max(d1, d2, 1e-9)
+        return far_enough(d1, d2, self.config.distance_margin)
 
     @staticmethod
     def bearing(vp: Viewpoint, point: np.ndarray) -> float:
