@@ -23,9 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
-
-class SegmentError(ValueError):
-    """The segmentation cannot produce a usable scene (says why and what to change)."""
+from rescene_core.segment.errors import SegmentError
+from rescene_core.segment.labels import zero_shot_labels
 
 
 class GeometricConfig(BaseModel):
@@ -401,8 +400,6 @@ def segment_geometric(
     segmenter = "geometric"
     label_report: dict[str, Any] = {"labeller": "none (every segment is 'object')"}
     if clip_model:
-        from rescene_core.segment.labels import zero_shot_labels
-
         names, label_report = zero_shot_labels(
             rgb, masks, objects, clip_model, clip_model_name, vocabulary, cfg.clip_views
         )

@@ -14,6 +14,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.config import HierViewConfig
+from rescene_core.hierview.semantic import ClipScorer, ClipUnavailableError
+from rescene_core.segment.errors import SegmentError
+
 
 def zero_shot_labels(
     rgb: NDArray[np.uint8],
@@ -26,10 +30,6 @@ def zero_shot_labels(
 ) -> tuple[dict[int, str], dict[str, Any]]:
     """{id: label} for the segments ``ids`` and a report (device, model, per-segment probabilities)."""
     import torch
-
-    from rescene_core.config import HierViewConfig
-    from rescene_core.hierview.semantic import ClipScorer, ClipUnavailableError
-    from rescene_core.segment.geometric import SegmentError
 
     if not vocabulary:
         raise SegmentError("the zero-shot vocabulary is empty; pass at least one label")
