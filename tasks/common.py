@@ -197,6 +197,49 @@ def stage_task(stage: Stage, retries: int = RETRIES, tags: tuple[str, ...] = ())
     )
 
 
+# ---- shared VLM endpoint: a Prefect global concurrency limit ---------------------------------------
+
+VLM_LIMIT_ENV = "RESCENE_VLM_LIMIT"
+"""Environment variable (set on the GPU pool's workers): the name of the Prefect global concurrency limit
+that every VLM request of the relation stage holds a slot of, shared by all workers and flow runs
+(create it with ``prefect gcl create NAME --limit N``, one per endpoint). Unset: no shared limit."""
+
+
+class ConcurrencyLimitMissingError(BadInputError):
+    """RESCENE_VLM_LIMIT names a global concurrency limit that the Prefect server does not have."""
+
+
+@contextmanager
+def vlm_slot(base_url: str) -> Iterator[None]:
+    """Hold one slot of the global concurrency limit named by RESCENE_VLM_LIMIT around a VLM request
+    (nothing when unset). A name that does not exist on the server is a clear, non-retried error."""
+    name = os.environ.get(VLM_LIMIT_ENV, "").strip()
+    if not name:
+        yield
+        return
+    from prefect.concurrency._asyncio import ConcurrencySlotAcquisitionError
+    from prefect.concurrency.sync import concurrency
+
+    try:
+        ctx = concurrency(name, occupy=1, strict=True)
+        ctx.__enter__()
+    except ConcurrencySlotAcquisitionError as err:
+        if "must be created" not in str(err):  # the server did not answer: retried with backoff
+            raise TransientStageError(f"{VLM_LIMIT_ENV}={name!r}: {err}") from err
+        raise ConcurrencyLimitMissingError(
+            f"{VLM_LIMIT_ENV}={name!r} (VLM endpoint {base_url}): no global concurrency limit of that name on "
+            f"the Prefect server; create it with `prefect gcl create {name} --limit N` or unset {VLM_LIMIT_ENV} "
+            f"({err})"
+        ) from err
+    try:
+        yield
+    except BaseException as exc:
+        if not ctx.__exit__(type(exc), exc, exc.__traceback__):
+            raise
+    else:
+        ctx.__exit__(None, None, None)
+
+
 # ---- execution: run-log segment, fault injection -------------------------------------------------
 
 

@@ -7,8 +7,13 @@ and returns a ``Ref`` (see tasks/common.py). Paths come from ``RunPaths``.
 from __future__ import annotations
 
 import dataclasses
+from contextlib import nullcontext
 from pathlib import Path
 
+# matplotlib.pyplot reads sys.modules["IPython"] when first imported and open3d imports IPython: two task
+# threads importing them at once (the physics check's picture, the evaluation) fail on the half initialised
+# module, so pyplot is imported here, once, before any task thread starts.
+import matplotlib.pyplot  # noqa: F401
 import numpy as np
 
 from rescene_core.capture import open_capture
@@ -20,7 +25,7 @@ from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
 from rescene_core.runlog import SceneObject, now_ns, scene_update
 from tasks import stages
-from tasks.common import TransientStageError, executing, make_ref, stage_task
+from tasks.common import TransientStageError, executing, make_ref, stage_task, vlm_slot
 from tasks.instance import load_asset_ref
 
 
@@ -74,7 +79,9 @@ def predict_relations(run_dir: str, capture: Ref, shell: Ref, frame: int, config
     with executing(run_dir, Stage.RELATIONS, frame) as seg:
         cap = open_capture(capture.path, validate=False)
         predictor = stages.make_predictor(config)
-        prediction = stages.predict_frame(cap, int(frame), load_shell(run_dir, shell), config, predictor)
+        endpoint = str(config.vlm.base_url or "from the environment") if config.backend == "openai" else None
+        with vlm_slot(endpoint) if endpoint is not None else nullcontext():
+            prediction = stages.predict_frame(cap, int(frame), load_shell(run_dir, shell), config, predictor)
         transport = [
             a.transport_error for a in getattr(prediction, "attempts", ()) if getattr(a, "transport_error", None)
         ]

@@ -146,6 +146,14 @@ def load_inference(path: Path) -> type:
     return inference
 
 
+@functools.lru_cache(maxsize=2)
+def _inference(config_path: str, code_dir: str | None, mtime: float):
+    """SAM 3D Objects' pipeline, loaded once per process, checkpoint config and its mtime: every instance,
+    task and flow run of a worker reuses the loaded model (its Inference puts it on the GPU)."""
+    inference_cls = load_inference(inference_path(code_dir))
+    return inference_cls(config_path, compile=False)
+
+
 class Sam3dBackend:
     """SAM 3D Objects behind the AssetBackend protocol (GPU worker with SAM 3D Objects installed)."""
 
@@ -163,9 +171,8 @@ class Sam3dBackend:
             config_path = config_path / "pipeline.yaml"
         if not config_path.is_file():
             raise BackendUnavailable(f"SAM 3D Objects pipeline config not found at {config_path}")
-        inference_cls = load_inference(inference_path(config.sam3d_code_dir))
         self.seed = config.seed
-        self.inference = inference_cls(str(config_path), compile=False)
+        self.inference = _inference(str(config_path.resolve()), config.sam3d_code_dir, config_path.stat().st_mtime)
 
     def generate(self, view: GeneratorInput) -> GeneratorOutput:
         output = self.inference(np.asarray(view.rgb), np.asarray(view.mask, bool), seed=self.seed)

@@ -143,9 +143,17 @@ def resolve_clip_weights(config: HierViewConfig) -> Path:
     return path
 
 
+def clip_device() -> str:
+    """ "cuda" when torch sees a GPU, else "cpu"."""
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
 @functools.lru_cache(maxsize=2)
 def _load_clip(model_name: str, weights: str, mtime: float):
-    """(model, preprocess, tokenizer) on the CPU, eval mode; cached per weights file and its mtime."""
+    """(model, preprocess, tokenizer) in eval mode on ``clip_device()``; loaded once per process, weights
+    file and its mtime, so every task and flow run of a worker reuses it."""
     try:
         import open_clip
     except ImportError as err:
@@ -153,7 +161,9 @@ def _load_clip(model_name: str, weights: str, mtime: float):
             f"the clip semantic backend needs open_clip and torch ({err}); pip install 'rescene[clip]'"
         ) from err
     try:
-        model, _, preprocess = open_clip.create_model_and_transforms(model_name, pretrained=weights, device="cpu")
+        model, _, preprocess = open_clip.create_model_and_transforms(
+            model_name, pretrained=weights, device=clip_device()
+        )
         tokenizer = open_clip.get_tokenizer(model_name)
     except Exception as err:  # any load failure becomes a recorded fallback, not a crash
         raise ClipUnavailableError(f"cannot build open_clip {model_name} from {weights}: {err}") from err
@@ -173,6 +183,7 @@ class ClipScorer:
         self.model, self.preprocess, self.tokenizer = _load_clip(
             self.config.clip_model, str(self.weights), self.weights.stat().st_mtime
         )
+        self.device = next(self.model.parameters()).device
         self._text_cache: dict[str, NDArray[np.float32]] = {}
 
     def _prompt(self, label: str) -> str:
@@ -187,9 +198,9 @@ class ClipScorer:
         todo = [p for p in dict.fromkeys(prompts) if p not in self._text_cache]
         if todo:
             with torch.no_grad():
-                feats = self.model.encode_text(self.tokenizer(todo)).float()
+                feats = self.model.encode_text(self.tokenizer(todo).to(self.device)).float()
                 feats = feats / feats.norm(dim=-1, keepdim=True).clamp_min(1e-12)
-            for p, f in zip(todo, feats.numpy()):
+            for p, f in zip(todo, feats.cpu().numpy()):
                 self._text_cache[p] = f
         return np.stack([self._text_cache[p] for p in prompts])
 
@@ -211,7 +222,7 @@ class ClipScorer:
 
         labels = sorted({inst.label for inst in capture.instances} | {"object"})
         label_of = {int(inst.id): inst.label for inst in capture.instances}
-        text = torch.from_numpy(self.text_embeddings(labels))
+        text = torch.from_numpy(self.text_embeddings(labels)).to(self.device)
         label_index = {lab: j for j, lab in enumerate(labels)}
         by_frame: dict[int, list[tuple[int, int]]] = {}
         for inst_id, frames in requests.items():
@@ -225,10 +236,10 @@ class ClipScorer:
             if not batch:
                 return
             with torch.no_grad():
-                images = torch.stack([self.preprocess(img) for _, _, img in batch])
+                images = torch.stack([self.preprocess(img) for _, _, img in batch]).to(self.device)
                 feats = self.model.encode_image(images).float()
                 feats = feats / feats.norm(dim=-1, keepdim=True).clamp_min(1e-12)
-                probs = torch.softmax(scale * feats @ text.T, dim=-1).numpy()
+                probs = torch.softmax(scale * feats @ text.T, dim=-1).cpu().numpy()
             for (inst_id, j, _), p in zip(batch, probs):
                 label = label_of.get(inst_id, "object")
                 out[inst_id][j] = float(p[label_index.get(label, label_index["object"])])
