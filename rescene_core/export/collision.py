@@ -1,15 +1,22 @@
 """Convex collision pieces of object meshes for the simulators (MuJoCo collides every mesh as its convex
 hull, so a concave table needs several pieces).
 
-Per mesh: a sound closed mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
+Per mesh, exact pieces first: the mesh is split into connected components (by shared vertices); a
+component whose volume is within ``CONVEX_TOLERANCE`` of its convex hull's is convex and its hull is a
+piece as it is; a component whose faces are all axis-aligned (a union of boxes: the synthetic
+furniture's shelves, legs and boards) is cut exactly into boxes on the grid of its vertex coordinates
+(``box_pieces``). Their method is 'components'. Only the other components go to CoACD: a sound closed
+mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
 faces, at most ``coacd_max_pieces`` pieces), run in a subprocess with a time limit
 (rescene_core/export/coacd_worker.py), ``decomposition_workers`` at a time. When CoACD fails, times out
 or the mesh is not a sound closed surface, the piece is the convex hull of the mesh, and when even that
 is flat or degenerate, the mesh's oriented bounding box thickened to ``min_thickness``; each fallback is
 written in the decomposition's ``notes`` (they go to ``scene/export_report.json``).
 
-Results are cached on disk under the hash of the mesh's vertices and faces and the CoACD settings, so
-the same mesh (the same asset, a re-run, the ground truth of a seed) is decomposed once.
+CoACD results are cached on disk under the hash of the component's vertices and faces and the CoACD
+settings, so the same mesh (the same asset, a re-run, the ground truth of a seed) is decomposed once; the
+exact pieces take milliseconds and are not cached (an entry always holds CoACD's answer for exactly the
+mesh it is keyed on, so entries written before the exact pieces existed keep their meaning).
 """
 
 from __future__ import annotations
@@ -33,6 +40,13 @@ COACD_PARAMS_VERSION = 1
 """Bumped when the CoACD keywords change meaning, so old cache entries are not reused."""
 WORKER_SCRIPT = Path(__file__).with_name("coacd_worker.py")
 """The CoACD subprocess (it imports only numpy and coacd)."""
+CONVEX_TOLERANCE = 0.015
+"""A component whose volume is at least (1 - this) of its convex hull's is taken as convex (a tessellated
+cylinder or sphere is exactly convex; a box with a 1 cm notch in a 50 cm side is not)."""
+MAX_GRID_CELLS = 1_000_000
+"""Largest grid of an axis-aligned component cut into boxes; a finer one goes to CoACD."""
+MAX_COVER_TESTS = 4_000_000
+"""Largest (grid columns x horizontal triangles) tested at once (memory: ~8 bytes x 6 per test)."""
 MIN_THICKNESS = 0.005
 """Smallest extent of a box fallback collider (m): a flat mesh (a picture's plane) still collides."""
 
@@ -66,7 +80,8 @@ class DecompositionSettings:
 @dataclass(frozen=True)
 class Decomposition:
     """Convex pieces of one mesh, in the mesh's frame: each (vertices float64 [n, 3], faces int64 [m, 3]),
-    a closed convex hull. method: 'coacd', 'hull' or 'box'. notes: every fallback and repair made."""
+        a closed convex hull. method: 'components' (exact pieces only), 'coacd' (CoACD on at least one
+    component), 'hull' or 'box'. notes: every fallback and repair made."""
 
     pieces: tuple[tuple[NDArray[np.float64], NDArray[np.int64]], ...]
     method: str
@@ -216,12 +231,100 @@ def _load(path: Path) -> Decomposition | None:
     return Decomposition(pieces, meta["method"], float(meta["seconds"]), True, tuple(meta["notes"]))
 
 
-def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings) -> Decomposition:
-    """Convex pieces of one mesh (see the module doc); never raises for a bad mesh."""
+def components(vertices: NDArray, faces: NDArray) -> list[tuple[NDArray[np.float64], NDArray[np.int64]]]:
+    """The connected components of a mesh (faces joined by shared vertices, duplicates merged first)."""
+    mesh = trimesh.Trimesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), process=True)
+    parts = mesh.split(only_watertight=False)
+    if len(parts) <= 1:
+        return [(np.asarray(mesh.vertices), np.asarray(mesh.faces, np.int64))]
+    return [(np.asarray(p.vertices), np.asarray(p.faces, np.int64)) for p in parts]
+
+
+def _grid_coords(values: NDArray) -> NDArray[np.float64]:
+    c = np.unique(np.round(values, 6))  # float32 sources (manifold3d) put one plane within 1e-7 m
+    return c[np.concatenate([[True], np.diff(c) > 1e-5])]
+
+
+def box_pieces(vertices: NDArray, faces: NDArray) -> list[tuple[NDArray, NDArray]] | None:
+    """Exact boxes of a closed mesh whose faces are all axis-aligned (a union of boxes), or None when
+    it is not one (a slanted face, a grid over MAX_GRID_CELLS, boxes that do not add up to its volume).
+
+    The mesh is cut on the grid of its vertex coordinates; a cell is inside when a vertical ray from its
+    centre crosses the mesh's horizontal faces an odd number of times (centres never lie on a face's
+    outline, which runs along grid lines); inside cells are merged greedily into boxes (x, then y, then z).
+    """
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    mesh = trimesh.Trimesh(v, f, process=False)
+    normals = mesh.face_normals
+    if not (np.abs(normals).max(axis=1) > 1.0 - 1e-6).all():
+        return None
+    coords = [_grid_coords(v[:, k]) for k in range(3)]
+    if min(len(c) for c in coords) < 2 or np.prod([len(c) - 1 for c in coords]) > MAX_GRID_CELLS:
+        return None
+    cx, cy, cz = ((c[:-1] + c[1:]) / 2 for c in coords)
+    flat = np.abs(normals[:, 2]) > 1.0 - 1e-6
+    tri = v[f[flat]]  # [h, 3, 3] horizontal triangles
+    if len(cx) * len(cy) * len(tri) > MAX_COVER_TESTS:
+        return None
+    levels = np.round(tri[:, 0, 2], 6)
+    px, py = (a.ravel() for a in np.meshgrid(cx, cy, indexing="ij"))
+    # 2D barycentric test of every column centre against every horizontal triangle: [columns, h]
+    a, b, c = tri[:, 0, :2], tri[:, 1, :2], tri[:, 2, :2]
+    det = (b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0]) + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1])
+    dx, dy = px[:, None] - c[None, :, 0], py[:, None] - c[None, :, 1]
+    l1 = ((b[:, 1] - c[:, 1]) * dx + (c[:, 0] - b[:, 0]) * dy) / det
+    l2 = ((c[:, 1] - a[:, 1]) * dx + (a[:, 0] - c[:, 0]) * dy) / det
+    covers = (l1 >= -1e-9) & (l2 >= -1e-9) & (1.0 - l1 - l2 >= -1e-9)
+    inside = np.zeros((len(cx), len(cy), len(cz)), bool)
+    for col in np.flatnonzero(covers.any(axis=1)):
+        above = np.unique(levels[covers[col]])  # two triangles of one face share a level: counted once
+        crossings = len(above) - np.searchsorted(above, cz)
+        inside[col // len(cy), col % len(cy)] = crossings % 2 == 1
+    boxes: list[tuple[NDArray, NDArray]] = []
+    left = inside.copy()
+    for i, j, k in np.argwhere(inside):
+        if not left[i, j, k]:
+            continue
+        i1 = i
+        while i1 + 1 < left.shape[0] and left[i1 + 1, j, k]:
+            i1 += 1
+        j1 = j
+        while j1 + 1 < left.shape[1] and left[i : i1 + 1, j1 + 1, k].all():
+            j1 += 1
+        k1 = k
+        while k1 + 1 < left.shape[2] and left[i : i1 + 1, j : j1 + 1, k1 + 1].all():
+            k1 += 1
+        left[i : i1 + 1, j : j1 + 1, k : k1 + 1] = False
+        lo = np.array([coords[0][i], coords[1][j], coords[2][k]])
+        hi = np.array([coords[0][i1 + 1], coords[1][j1 + 1], coords[2][k1 + 1]])
+        box = trimesh.creation.box(bounds=np.stack([lo, hi]))
+        boxes.append((np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64)))
+    total = sum(float(np.prod(bv.max(0) - bv.min(0))) for bv, _ in boxes)
+    if not boxes or abs(total - abs(mesh.volume)) > 1e-3 * abs(mesh.volume) + 1e-9:
+        return None
+    return boxes
+
+
+def exact_pieces(vertices: NDArray, faces: NDArray) -> list[tuple[NDArray, NDArray]] | None:
+    """The convex pieces of one closed component without CoACD: its hull when it is convex (volume
+    within CONVEX_TOLERANCE of the hull's), its boxes when it is a union of axis-aligned boxes; None
+    otherwise."""
+    mesh = trimesh.Trimesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), process=False)
+    if not mesh.is_watertight or abs(mesh.volume) < 1e-9:
+        return None
+    try:
+        hull = mesh.convex_hull
+    except Exception:  # qhull fails on flat input; such a component has no volume anyway
+        return None
+    if abs(mesh.volume) >= (1.0 - CONVEX_TOLERANCE) * hull.volume:
+        return [(np.asarray(hull.vertices, np.float64), np.asarray(hull.faces, np.int64))]
+    return box_pieces(mesh.vertices, mesh.faces)
+
+
+def _decompose_coacd(v: NDArray, f: NDArray, problems: list[str], settings: DecompositionSettings) -> Decomposition:
+    """CoACD's pieces of one mesh (or its hull/box fallback), cached on the mesh and the settings."""
     start = time.perf_counter()
-    v = np.asarray(vertices, np.float64).reshape(-1, 3)
-    f = np.asarray(faces, np.int64).reshape(-1, 3)
-    problems = check_mesh(v, f)
     params = settings.coacd_params(watertight=not problems)
     key = mesh_key(v, f, params)
     cache = Path(settings.cache_dir) if settings.cache_dir else default_cache_dir()
@@ -256,6 +359,41 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
         except OSError:  # a read-only cache only costs time
             pass
     return dec
+
+
+def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings) -> Decomposition:
+    """Convex pieces of one mesh (see the module doc); never raises for a bad mesh."""
+    start = time.perf_counter()
+    v = np.asarray(vertices, np.float64).reshape(-1, 3)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    problems = check_mesh(v, f)
+    if problems:
+        return _decompose_coacd(v, f, problems, settings)
+    parts = components(v, f)
+    exact: list[tuple[NDArray, NDArray]] = []
+    rest: list[tuple[NDArray, NDArray]] = []
+    for cv, cf in parts:
+        found = exact_pieces(cv, cf)
+        if found is None:
+            rest.append((cv, cf))
+        else:
+            exact += found
+    if not rest:
+        note = f"exact pieces of {len(parts)} component(s), no CoACD"
+        return Decomposition(tuple(exact), "components", round(time.perf_counter() - start, 3), False, (note,))
+    if len(rest) == 1 and not exact:  # one solid: CoACD on the mesh as given (its cache key unchanged)
+        return _decompose_coacd(v, f, [], settings)
+    done = [_decompose_coacd(cv, cf, check_mesh(cv, cf), settings) for cv, cf in rest]
+    notes = [f"exact pieces of {len(parts) - len(rest)} of {len(parts)} components, CoACD on the rest"]
+    notes += [n for d in done for n in d.notes]
+    fallbacks = [d.method for d in done if d.method != "coacd"]
+    return Decomposition(
+        tuple(exact) + tuple(p for d in done for p in d.pieces),
+        fallbacks[0] if fallbacks else "coacd",
+        round(time.perf_counter() - start, 3),
+        all(d.cached for d in done),
+        tuple(notes),
+    )
 
 
 def decompose_all(

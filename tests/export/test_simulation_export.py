@@ -130,7 +130,7 @@ def test_report_names_every_guess(exported):
     out, _ = exported
     report = json.loads((out / "export_report.json").read_text())
     by_node = {o["node"]: o for o in report["objects"]}
-    assert by_node["obj_1_dining_table"]["collision_method"] == "coacd"
+    assert by_node["obj_1_dining_table"]["collision_method"] == "components"  # a union of boxes: exact
     assert any("default" in n and "density" in n for n in by_node["obj_2_mug"]["notes"])  # 'mug' has no entry
     sheet = by_node["obj_4_sheet"]
     assert sheet["collision_method"] == "box" and any("flat or degenerate" in n for n in sheet["notes"])
@@ -138,8 +138,15 @@ def test_report_names_every_guess(exported):
     assert report["missing"] == [{"instance": 9, "stage": "registration", "reason": "gates"}]
 
 
-def test_coacd_timeout_falls_back_to_the_hull(tmp_path):
+def slanted_table():
+    """The table turned 30 degrees about z: no longer axis-aligned boxes, so it goes to CoACD."""
     table = table_mesh()
+    table.apply_transform(trimesh.transformations.rotation_matrix(np.radians(30), [0, 0, 1]))
+    return table
+
+
+def test_coacd_timeout_falls_back_to_the_hull(tmp_path):
+    table = slanted_table()
     settings = DecompositionSettings(timeout_s=0.01, cache_dir=str(tmp_path))
     dec = decompose(table.vertices, table.faces, settings)
     assert dec.method == "hull" and len(dec.pieces) == 1
@@ -147,12 +154,12 @@ def test_coacd_timeout_falls_back_to_the_hull(tmp_path):
 
 
 def test_decompositions_are_cached(tmp_path):
-    box = trimesh.creation.box((0.4, 0.3, 0.2))
+    table = slanted_table()
     settings = DecompositionSettings(cache_dir=str(tmp_path))
-    first = decompose(box.vertices, box.faces, settings)
-    again = decompose(box.vertices, box.faces, settings)
-    assert not first.cached and again.cached and again.method == first.method
-    assert again.volume == pytest.approx(0.024, rel=1e-3)
+    first = decompose(table.vertices, table.faces, settings)
+    again = decompose(table.vertices, table.faces, settings)
+    assert first.method == "coacd" and not first.cached and again.cached and again.method == first.method
+    assert len(again.pieces) == len(first.pieces) and again.volume == pytest.approx(first.volume, rel=1e-9)
 
 
 def test_bad_mesh_values_never_raise(tmp_path):
