@@ -29,7 +29,12 @@ def zero_shot_labels(
     views: int = 3,
 ) -> tuple[dict[int, str], dict[str, Any]]:
     """{id: label} for the segments ``ids`` and a report (device, model, per-segment probabilities)."""
-    import torch
+    try:
+        import torch
+    except ImportError as err:
+        raise SegmentError(
+            f"CLIP labels of segments need torch and open_clip ({err}); pip install 'rescene[clip]'"
+        ) from err
 
     if not vocabulary:
         raise SegmentError("the zero-shot vocabulary is empty; pass at least one label")

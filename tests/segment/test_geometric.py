@@ -5,6 +5,7 @@ empty-scene error."""
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -96,3 +97,12 @@ def test_zero_shot_labels_with_a_tiny_random_clip(tiny, segmented, tmp_path):
     assert report["labeller"] == f"open_clip {name}" and report["device"] in ("cpu", "cuda")
     for detail in report["segments"].values():
         assert 0.0 < detail["probability"] <= 1.0 and 1 <= len(detail["views"]) <= 2
+
+
+def test_zero_shot_labels_without_torch_names_the_extra(tiny, segmented, monkeypatch, tmp_path):
+    from rescene_core.segment.labels import zero_shot_labels
+
+    monkeypatch.setitem(sys.modules, "torch", None)  # as if the clip extra were not installed
+    objects = [i for i, (lab, st) in segmented.labels.items() if not st]
+    with pytest.raises(SegmentError, match=r"pip install 'rescene\[clip\]'"):
+        zero_shot_labels(tiny.arrays.rgb, segmented.masks, objects, tmp_path / "clip.pt", "ViT-B-32", ("chair",))
