@@ -32,7 +32,7 @@ from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import level_correction, translation
-from rescene_core.geometry.sim3 import apply
+from rescene_core.geometry.sim3 import apply, inverse, scale_of
 from rescene_core.records import Edge, InstanceId
 
 
@@ -74,15 +74,98 @@ def support_levels_of(
 
 
 def support_levels(state: LayoutState, parent: InstanceId) -> list[SupportLevel]:
-    """Upward-facing support levels of ``parent`` at its current pose, highest first."""
+    """Upward-facing support levels of ``parent`` at its current pose, highest first: its mesh's, and the
+    support planes found in its observed points (``board_from_points``)."""
     cfg = state.config
-    return support_levels_of(
+    levels = support_levels_of(
         state.vertices(parent),
         state.objects[parent].faces,
         state.room,
         cfg.support_normal_deg,
         cfg.support_level_tolerance,
     )
+    for board in state.boards.get(parent, ()):
+        world = apply(state.pose(parent), board)
+        levels.append(SupportLevel(float(state.room.floor_distance(world).mean()), Polygon(world[:, :2])))
+    return sorted(levels, key=lambda lv: -lv.height)
+
+
+BOARD_WINDOW = (0.06, 0.03)
+"""A support plane is looked for in the parent's points from this far (m) below to this far above the
+child's registered bottom (registration sinks or lifts a child by a few centimetres)."""
+BOARD_BIN = 0.02
+"""Height bin (m) of the parent's point histogram (about a shelf board's thickness)."""
+BOARD_MIN_POINTS = 20
+"""Fewest parent points in the peak bin of a support plane."""
+BOARD_MIN_RATIO = 1.6
+"""The peak bin must hold at least this many times the parent's median bin: a board seen from the front
+or from above is a band of points at one height, a side panel spreads its points over every height."""
+BOARD_REGION = 0.30
+"""Parent points within this distance (m) of the child's footprint are the evidence for its plane."""
+BOARD_BOX_MARGIN = 0.05
+"""Parent points farther than this (m) outside the parent's registered mesh box are another object's."""
+
+
+def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId) -> SupportLevel | None:
+    """A horizontal support plane of ``parent`` under ``child`` from the parent's observed points (a shelf
+    board the capture saw but the generated mesh lacks), at the parent's current pose; None without
+    evidence. The plane spans the parent's footprint; it is recorded in ``state.boards`` (asset frame).
+
+    Evidence, at the registered poses: the parent's points inside its registered mesh box (bleed from other
+    objects left out) near the child's footprint, binned by height; the fullest bin within ``BOARD_WINDOW``
+    of the child's registered bottom must hold ``BOARD_MIN_POINTS`` and ``BOARD_MIN_RATIO`` times the
+    median bin. Height: the 75th percentile of the points within one bin of that peak (a board's top, not
+    its front edge's middle)."""
+    pobj, cobj, room = state.objects[parent], state.objects[child], state.room
+    if pobj.points is None or len(pobj.points) == 0:
+        return None
+    pts = np.asarray(pobj.points, dtype=np.float64)
+    local = apply(inverse(pobj.world_from_asset), pts)
+    margin = BOARD_BOX_MARGIN / scale_of(pobj.world_from_asset)
+    lo, hi = pobj.vertices.min(axis=0) - margin, pobj.vertices.max(axis=0) + margin
+    pts = pts[np.all((local >= lo) & (local <= hi), axis=1)]
+    seen = cobj.world_vertices()
+    region = footprint(seen).buffer(BOARD_REGION)
+    pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
+    if len(pts) < BOARD_MIN_POINTS:
+        return None
+    heights = room.floor_distance(pts)
+    bottom = float(room.floor_distance(seen).min())
+    edges = np.arange(heights.min(), heights.max() + BOARD_BIN, BOARD_BIN)
+    if len(edges) < 3:
+        return None
+    counts, edges = np.histogram(heights, bins=edges)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    window = np.flatnonzero((centres >= bottom - BOARD_WINDOW[0]) & (centres <= bottom + BOARD_WINDOW[1]))
+    if window.size == 0:
+        return None
+    k = int(window[np.argmax(counts[window])])
+    typical = float(np.median(counts))  # empty bins count: a parent seen only at its boards has a median of 0
+    if counts[k] < BOARD_MIN_POINTS or counts[k] < BOARD_MIN_RATIO * typical:
+        return None
+    near = heights[np.abs(heights - centres[k]) <= BOARD_BIN]
+    height = float(np.clip(np.percentile(near, 75), bottom - BOARD_WINDOW[0], bottom + BOARD_WINDOW[1]))
+    if abs(room.up[2]) < 1e-9:
+        return None
+    # the height found at the registered pose goes with the parent to its current pose; the plane spans the
+    # parent's current footprint (shrunk by 1 cm, so it never reaches beyond the mesh), kept in its asset frame
+    centre = footprint(seen).centroid
+    mark = np.array([[centre.x, centre.y, 0.0]])
+    mark[0, 2] = (height - room.floor_distance(mark)[0]) / float(room.up[2])
+    now_pose = state.pose(parent)
+    now_height = float(room.floor_distance(apply(now_pose @ inverse(pobj.world_from_asset), mark))[0])
+    shrunk = footprint(state.vertices(parent)).buffer(-0.01)
+    if not isinstance(shrunk, Polygon) or shrunk.is_empty:
+        return None
+    ring = np.asarray(shrunk.exterior.coords)[:-1]
+    base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
+    world = np.c_[ring, (now_height - base) / float(room.up[2])]
+    board = apply(inverse(now_pose), world)
+    known = state.boards.setdefault(parent, [])
+    if not any(np.allclose(board, b, atol=1e-9) for b in known if b.shape == board.shape):
+        known.append(board)
+    now = apply(state.pose(parent), board)
+    return SupportLevel(float(room.floor_distance(now).mean()), Polygon(now[:, :2]))
 
 
 def seen_centre_shift(state: LayoutState, child: InstanceId, moved: NDArray, face: Polygon) -> NDArray[np.float64]:
@@ -118,22 +201,28 @@ def compile_support(
     correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
     moved = apply(correction @ pose, obj.vertices)
     bottom = float(room.floor_distance(moved).min())
+    # the level is chosen by where the child was seen standing, not where its parent's correction took it
+    seen_bottom = float(room.floor_distance(obj.world_vertices()).min())
     fp = footprint(moved)
     feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
     parent_generated = not state.objects[parent].exact_shape
+    board = None
     inner = cfg.support_inner_tolerance
-    if parent_generated and inner is not None and bottom < levels[0].height - inner:
+    if parent_generated and inner is not None and seen_bottom < levels[0].height - inner:
         # inside a generated parent: only a level near the child's own height will do (see the docstring)
-        feasible = [lv for lv in feasible if abs(lv.height - bottom) <= inner]
+        feasible = [lv for lv in feasible if abs(lv.height - seen_bottom) <= inner]
+        board = None if feasible else board_from_points(state, parent, child)
+        if board is not None:
+            feasible, levels = [board], sorted([*levels, board], key=lambda lv: -lv.height)
         if not feasible:
             return None, {
                 "reason": (
-                    f"child stands {levels[0].height - bottom:.2f} m below the top of generated parent {parent}, "
-                    "whose mesh has no support face near its height (an inner shelf it lacks); left at its "
-                    "registered height"
+                    f"child stands {levels[0].height - seen_bottom:.2f} m below the top of generated parent "
+                    f"{parent}, whose mesh has no support face near its height (an inner shelf it lacks); left "
+                    "at its registered pose"
                 )
             }
-    level = min(feasible, key=lambda lv: abs(lv.height - bottom)) if feasible else levels[0]
+    level = min(feasible, key=lambda lv: abs(lv.height - seen_bottom)) if feasible else levels[0]
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
     # the child's registered centre is the evidence of where it stands (evidence.py), not where its
     # parent's corrections carried it; an exact shape's whole footprint then goes onto the face
@@ -158,4 +247,6 @@ def compile_support(
         "horizontal_m": shift,
         "placement": how,
     }
+    if board is not None:
+        info["support_plane"] = "from the parent's observed points"
     return correction, info

@@ -34,6 +34,7 @@ from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import horizontal, nearest_axis, signed_yaw
+from rescene_core.geometry.sim3 import apply, inverse, scale_of
 from rescene_core.records import InstanceId
 
 FACE_YAW_BIN_DEG = 2.0
@@ -154,3 +155,41 @@ def yaw_to_direction(state: LayoutState, i: InstanceId, direction: NDArray, cand
     if yaw is None:
         return None
     return yaw, -1, 1.0
+
+
+POINTS_FIT_MARGIN = 0.03
+"""Observed points within this distance (m) of an object's mesh bounding box (in the asset frame, scaled to
+metres) count as explained by the mesh at that pose."""
+POINTS_FIT_MAX_DROP = 0.5
+"""A relation's correction of a generated asset may lower the share of its observed points its mesh box
+explains by at most this much (absolute) below the share at the registered pose; a larger drop moves the
+object away from where the capture saw it (a table top registered where it was seen, whose mesh lacks the
+legs, dropped 0.7 m onto the floor), so the correction is refused and the object keeps its registered pose."""
+
+
+def points_fit(obj, world_from_asset: NDArray) -> float | None:
+    """Share of ``obj.points`` lying within POINTS_FIT_MARGIN of the mesh's bounding box at
+    ``world_from_asset`` [4, 4]; None without points."""
+    pts = obj.points
+    if pts is None or len(pts) == 0:
+        return None
+    pose = np.asarray(world_from_asset, dtype=np.float64)
+    local = apply(inverse(pose), np.asarray(pts, dtype=np.float64))
+    lo, hi = obj.vertices.min(axis=0), obj.vertices.max(axis=0)
+    outside = np.maximum(np.maximum(lo - local, local - hi), 0.0)
+    return float(np.mean(np.linalg.norm(outside, axis=1) * scale_of(pose) <= POINTS_FIT_MARGIN))
+
+
+def evidence_refuses(state: LayoutState, i: InstanceId, new_pose: NDArray) -> str | None:
+    """Why moving generated object i to ``new_pose`` contradicts its observed points (None: it does not)."""
+    obj = state.objects[i]
+    if obj.exact_shape or obj.points is None:
+        return None
+    before = points_fit(obj, obj.world_from_asset)
+    after = points_fit(obj, new_pose)
+    if before is None or after is None or after >= before - POINTS_FIT_MAX_DROP:
+        return None
+    return (
+        f"the correction would leave {1 - after:.0%} of the object's observed points outside its mesh "
+        f"(registered: {1 - before:.0%}); the mesh lacks part of the object, so it keeps its registered pose"
+    )

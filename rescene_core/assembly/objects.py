@@ -29,6 +29,9 @@ class AssemblyObject:
         by the generator and their asset axes need not follow the object's faces, so the rules find the
         back face from the mesh faces and treat geometry that crosses the room boundary while the object's
         centre is inside as a completion error, not a pose error (docs/assembly.md, "Generated assets").
+    points: float64 [n, 3] world points the capture saw of this object (the registration's P_i), or None.
+        Evidence that bounds the solver's moves of a generated asset and gives support planes its mesh
+        lacks (``rescene_core.assembly.evidence``); without them those checks are skipped.
     """
 
     instance: InstanceId
@@ -37,6 +40,7 @@ class AssemblyObject:
     faces: NDArray[np.int64]
     world_from_asset: NDArray[np.float64]
     exact_shape: bool = False
+    points: NDArray[np.float64] | None = None
 
     def world_vertices(self, world_from_asset: NDArray | None = None) -> NDArray[np.float64]:
         """Vertices [v, 3] in the world under ``world_from_asset`` (default: the registered pose)."""
@@ -63,6 +67,10 @@ def check_object(obj: AssemblyObject) -> list[str]:
     problems += [f"world_from_asset: {p}" for p in check_sim3(obj.world_from_asset)]
     if not problems and np.ptp(v, axis=0).max() <= 0:
         problems.append("mesh has zero extent")
+    if obj.points is not None:
+        p = np.asarray(obj.points)
+        if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
+            problems.append(f"points have shape {p.shape} or non-finite values; need finite [n, 3] or None")
     return problems
 
 

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from rescene_core.assembly.compile_wall import resolve_walls
 from rescene_core.assembly.dispatch import compile_edge
-from rescene_core.assembly.evidence import wall_gap
+from rescene_core.assembly.evidence import evidence_refuses, wall_gap
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
 from rescene_core.geometry.sim3 import inverse, scale_by_confidence
@@ -53,6 +53,14 @@ def contact_closure(state: LayoutState, child: InstanceId, info: dict) -> tuple[
     return np.eye(4), 0.0
 
 
+def keep_registered(state: LayoutState, child: InstanceId) -> None:
+    """A child whose relation cannot be satisfied stays where it was registered, not where its parent's
+    correction carried it (a book stack on a desk the floor snap lowered by 0.19 m would otherwise sink
+    0.19 m into it)."""
+    state.delta[child] = np.eye(4)
+    state._version[child] += 1
+
+
 def propagate(state: LayoutState, use_walls: bool = True) -> None:
     """Apply every edge of the forest in topological order (in place). ``use_walls=False`` is the
     floor-only branch: ``mounts-on wall`` edges are skipped and their children keep their poses."""
@@ -66,6 +74,7 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         state._version[child] += 1
         stage, correction, info = compile_edge(state, child, edge, plans)
         if correction is None:
+            keep_registered(state, child)
             state.skip(child, stage, info.get("reason", "rule did not apply"))
             continue
         weighted = scale_by_confidence(correction, edge.confidence)
@@ -76,6 +85,11 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             state._version[child] += 1
             closure, closed = contact_closure(state, child, info)
             update = inverse(parent_delta) @ closure @ weighted @ parent_delta
+        refused = evidence_refuses(state, child, parent_delta @ update @ state.objects[child].world_from_asset)
+        if refused is not None:
+            keep_registered(state, child)
+            state.skip(child, stage, refused)
+            continue
         state.set_delta(
             child,
             parent_delta @ update,

@@ -41,6 +41,7 @@ from rescene_core.assembly.refine import (
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
 from rescene_core.config import AttachmentConfig
+from rescene_core.geometry.sim3 import apply
 from rescene_core.records import InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
 
 
@@ -113,6 +114,9 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
                 merged.delta[i] = floor.delta[i].copy()
                 merged._version[i] += 1
                 merged.wall_of.pop(i, None)
+                merged.boards.pop(i, None)
+                if i in floor.boards:
+                    merged.boards[i] = list(floor.boards[i])
             merged.log(root, "dual attachment", "keep floor-only", reason=reason, members=[int(i) for i in members])
             switched = True
         elif differs:
@@ -123,6 +127,32 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
         depenetrate(merged, world, "depenetration (merged)")
         outside_repair(merged, "final containment (merged)")
     return merged
+
+
+def record_boards(state: LayoutState) -> None:
+    """One 'support plane' operation per plane found in a parent's observed points, at the final pose: what
+    an exporter reads to add the shelf board the generated mesh lacks (a horizontal polygon, world and
+    parent-asset frame, height above the floor, the children standing on it)."""
+    children: dict[InstanceId, list[int]] = defaultdict(list)
+    for op in state.operations:
+        if op.details.get("support_plane") and op.branch in (state.branch, "wall-aware", "floor-only"):
+            children[InstanceId(int(op.details["parent"]))].append(int(op.instance or 0))
+    for parent, boards in sorted(state.boards.items()):
+        pose = state.pose(parent)
+        for board in boards:
+            world = apply(pose, board)
+            height = float(state.room.floor_distance(world).mean())
+            on = sorted({c for c in children.get(parent, []) if state.forest.edges.get(InstanceId(c)) is not None})
+            state.log(
+                parent,
+                "support planes",
+                "support plane",
+                height_m=height,
+                polygon_world=world,
+                polygon_asset=board,
+                children=on,
+                source="parent's observed points (a shelf board its generated mesh lacks)",
+            )
 
 
 def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShell, config: AttachmentConfig) -> Layout:
@@ -161,6 +191,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         final = choose_branches(wall_state, floor_state, world)
     else:
         final = wall_state
+    record_boards(final)
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},
         operations=tuple(op.to_json() for op in final.operations),

@@ -36,6 +36,9 @@ class LayoutState:
     """Concrete wall each wall-mounted object was attached to."""
     unfit: frozenset[InstanceId] = frozenset()
     """Objects whose footprint cannot fit inside the room: no repair or depenetration moves them."""
+    boards: dict[InstanceId, list[NDArray[np.float64]]] = field(default_factory=dict)
+    """Support planes found in a parent's observed points (shelf boards its generated mesh lacks): per
+    parent, each plane's polygon [k, 3] in the parent's asset frame (compile_support.board_from_points)."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
 
@@ -55,6 +58,7 @@ class LayoutState:
             list(self.operations),
             dict(self.wall_of),
             self.unfit,
+            {k: list(v) for k, v in self.boards.items()},
         )
 
     def pose(self, i: InstanceId) -> NDArray[np.float64]:

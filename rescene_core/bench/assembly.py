@@ -178,6 +178,31 @@ def perturb(objects: dict, graph: SceneGraph, shell: RoomShell, seed: int) -> tu
     return out, modes
 
 
+def metric_objects(objects: dict, layout) -> dict:
+    """``objects`` as the exported scene has them: each parent's mesh with the support planes the solver
+    found in its observed points (``support plane`` operations of ``layout``, a shelf board the generated mesh
+    lacks, which the exporter adds as a collider) appended as two-sided triangles in its asset frame."""
+    from dataclasses import replace
+
+    boards: dict[int, list[np.ndarray]] = {}
+    for op in layout.operations:
+        if op["rule"] == "support plane":
+            boards.setdefault(int(op["instance"]), []).append(np.asarray(op["polygon_asset"], np.float64))
+    out = dict(objects)
+    for i, polys in boards.items():
+        obj = objects[InstanceId(i)]
+        verts, faces = [obj.vertices], [obj.faces]
+        count = len(obj.vertices)
+        for poly in polys:
+            k = len(poly)
+            fan = np.array([[0, j, j + 1] for j in range(1, k - 1)], np.int64) + count
+            verts.append(poly)
+            faces += [fan, fan[:, ::-1]]
+            count += k
+        out[InstanceId(i)] = replace(obj, vertices=np.vstack(verts), faces=np.vstack(faces))
+    return out
+
+
 def pose_errors(gt: dict, objects: dict, poses: dict) -> tuple[float, float]:
     """Median bounding-box-centre error (m) and median rotation error (deg) against ground truth."""
     t_err, r_err = [], []
@@ -440,6 +465,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
             o["vertices"],
             o["faces"],
             np.asarray(o["registered_world_from_asset"], np.float64),
+            points=np.asarray(cap.point_cloud(int(o["instance"])).points, np.float64),
         )
         for o in doc["objects"]
         if o.get("registered_world_from_asset") is not None
@@ -497,14 +523,16 @@ def _registration_stages(
     stages = {}
     for stage in STAGES:
         if stage == "none":
-            poses, seconds = {i: o.world_from_asset for i, o in objects.items()}, 0.0
+            poses, seconds, scene_objects = {i: o.world_from_asset for i, o in objects.items()}, 0.0, objects
         else:
             start = time.perf_counter()
-            poses = attach(objects, graph, shell, AttachmentConfig(stop_after=stage)).world_from_asset
+            layout = attach(objects, graph, shell, AttachmentConfig(stop_after=stage))
             seconds = time.perf_counter() - start
+            poses, scene_objects = layout.world_from_asset, metric_objects(objects, layout)
         if poses_out is not None:
             poses_out[stage] = poses
-        m = structural_metrics(objects, poses, graph, shell)
+        # contacts as the exported scene has them: with the support planes found in the parents' points
+        m = structural_metrics(scene_objects, poses, graph, shell)
         err = []
         for i, c in gt_centre.items():
             pv = objects[i].world_vertices(poses[i])
