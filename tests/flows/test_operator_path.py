@@ -1,0 +1,159 @@
+"""The operator's path with real parts: a Prefect server on a free port, the work pool, `prefect deploy`
+from deployments/prefect.yaml, a process worker, `rescene/scene` on a small capture with one instance
+forced to fail (RUN/faults.json), then the flow run retried with the request the UI's Retry button sends.
+
+Only the stage libraries are the counting fakes of tests/flows/fakes.py (installed in the worker's flow
+run processes by a ``sitecustomize`` on its PYTHONPATH), so the test measures the orchestration, not
+the models."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PREFECT = str(Path(sys.executable).parent / "prefect")
+
+SITECUSTOMIZE = """
+import os
+if os.environ.get("RESCENE_TEST_FAKE_STAGES"):
+    from tasks import stages
+    from tests.flows import fakes
+    for _name, _fn in fakes.STAGE_FAKES.items():
+        setattr(stages, _name, _fn)
+"""
+
+UI_RETRY = {"state": {"type": "SCHEDULED", "name": "AwaitingRetry", "message": "Retry from the UI"}, "force": True}
+"""The body of POST /flow_runs/{id}/set_state that the Prefect UI's Retry button sends."""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _cli(args: list[str], env: dict[str, str], timeout: float = 240) -> subprocess.CompletedProcess:
+    out = subprocess.run([PREFECT, *args], env=env, cwd=REPO, capture_output=True, text=True, timeout=timeout)
+    assert out.returncode == 0, f"prefect {' '.join(args)} failed:\n{out.stdout[-3000:]}\n{out.stderr[-3000:]}"
+    return out
+
+
+def _wait_final(api: str, flow_run_id: str, after: str | None = None, timeout: float = 300) -> dict:
+    """Poll the flow run until its state is final (and differs from the state id ``after``)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        run = httpx.get(f"{api}/flow_runs/{flow_run_id}", timeout=10).json()
+        state = run.get("state") or {}
+        if state.get("type") in ("COMPLETED", "FAILED", "CRASHED", "CANCELLED") and state.get("id") != after:
+            return state
+        time.sleep(1)
+    raise AssertionError(f"flow run {flow_run_id} not final after {timeout} s")
+
+
+@pytest.fixture(scope="module")
+def operator_stack(tmp_path_factory):
+    """A real server, the pool, the deployments registered by `prefect deploy`, and a process worker."""
+    tmp = tmp_path_factory.mktemp("operator")
+    port = _free_port()
+    api = f"http://127.0.0.1:{port}/api"
+    env = {
+        **os.environ,
+        "PREFECT_HOME": str(tmp / "prefect-home"),
+        "PREFECT_API_DATABASE_CONNECTION_URL": f"sqlite+aiosqlite:///{tmp / 'prefect.db'}",
+        "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
+        "PREFECT_UI_ENABLED": "false",
+        "RESCENE_RETRY_DELAY_S": "0.2",
+        "OMP_NUM_THREADS": "1",
+    }
+    env.pop("PREFECT_API_URL", None)
+    server = subprocess.Popen(
+        [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
+        env=env, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    worker = None
+    try:
+        deadline = time.monotonic() + 180
+        while True:
+            assert server.poll() is None, "prefect server exited"
+            try:
+                if httpx.get(f"{api}/health", timeout=2).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            assert time.monotonic() < deadline, "prefect server did not become healthy in 180 s"
+            time.sleep(1)
+        env["PREFECT_API_URL"] = api
+        _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env)
+        deploy = _cli(["--no-prompt", "deploy", "--all", "--prefect-file", "deployments/prefect.yaml"], env)
+        site = tmp / "site"
+        site.mkdir()
+        (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
+        worker_env = {**env, "RESCENE_TEST_FAKE_STAGES": "1", "PYTHONPATH": f"{site}{os.pathsep}{REPO}"}
+        worker_log = open(tmp / "worker.log", "w")  # noqa: SIM115 - closed with the worker
+        worker = subprocess.Popen(
+            [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
+            env=worker_env, cwd=REPO, stdout=worker_log, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+        yield {"api": api, "env": env, "tmp": tmp, "deploy": deploy, "worker": worker, "worker_log": tmp / "worker.log"}
+    finally:
+        for proc in (worker, server):
+            if proc is not None:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operator_stack):
+    from tests.flows.fakes import box_capture
+
+    api, tmp = operator_stack["api"], operator_stack["tmp"]
+    # `prefect deploy` registered both deployments of prefect.yaml (fastapi pinned where its worker check passes)
+    names = {d["name"] for d in httpx.post(f"{api}/deployments/filter", json={}, timeout=10).json()}
+    assert names == {"scene", "split"}, operator_stack["deploy"].stdout[-2000:]
+    split = httpx.get(f"{api}/deployments/name/rescene-split/split", timeout=10).json()
+    assert split["parameters"]["split_file"] == "deployments/splits/nightly.txt"
+
+    capture = box_capture(tmp / "boxes.zarr")
+    run_dir = tmp / "runs" / "boxes"
+    run_dir.mkdir(parents=True)
+    (run_dir / "faults.json").write_text(json.dumps([{"stage": "asset", "item": 3, "kind": "bad_input", "times": 1}]))
+    deployment = httpx.get(f"{api}/deployments/name/rescene/scene", timeout=10).json()
+    flow_run = httpx.post(
+        f"{api}/deployments/{deployment['id']}/create_flow_run",
+        json={"parameters": {"capture": str(capture), "run_dir": str(run_dir)}},
+        timeout=10,
+    ).json()
+    first = _wait_final(api, flow_run["id"])
+    assert first["type"] == "FAILED", (first, operator_stack["worker_log"].read_text()[-3000:])
+    assert "instances failed: 3" in first["message"]
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["failed_instances"] == [3] and manifest["flow_run_id"] == flow_run["id"]
+
+    # the UI's Retry: the same flow run back to Scheduled (AwaitingRetry), forced; the worker picks it up
+    response = httpx.post(f"{api}/flow_runs/{flow_run['id']}/set_state", json=UI_RETRY, timeout=10)
+    assert response.status_code in (200, 201), response.text
+    assert response.json()["status"] == "ACCEPT"
+    second = _wait_final(api, flow_run["id"], after=first["id"])
+    assert second["type"] == "COMPLETED", (second, operator_stack["worker_log"].read_text()[-3000:])
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["state"] == "Completed" and manifest["flow_run_id"] == flow_run["id"]
+    stages = manifest["stages"]
+    # only instance 3 and what depends on the set of placed instances ran again
+    assert stages["asset"] == {"cached": 2, "completed": 1} and stages["registration"] == {"cached": 2, "completed": 1}
+    for stage in ("shell", "view", "keyframes", "relations"):
+        assert set(stages[stage]) == {"cached"}, (stage, stages[stage])
+    for stage in ("fusion", "attachment", "export"):
+        assert stages[stage] == {"completed": 1}, (stage, stages[stage])
