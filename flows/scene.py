@@ -52,12 +52,27 @@ def _bind(task_, run: RunPaths):
 
 @flow(name="rescene", description="Multi-view capture -> simulation-ready object-level scene (ReScene).")
 def rescene(
-    capture: str, run_dir: str, config: RunConfig | None = None, verify_capture: str = "stamp"
+    capture: str,
+    run_dir: str,
+    config: RunConfig | None = None,
+    verify_capture: str = "stamp",
+    runner: str = "thread",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Run ReScene on ``capture`` (a capture .zarr) into ``run_dir`` with ``config`` (defaults: the paper).
 
     ``verify_capture``: "stamp" checks the capture's identity stamp cheaply (sizes, files modified
-    since it was written); "full" rehashes every byte against it (tasks/common.py ``capture_ref``)."""
+    since it was written); "full" rehashes every byte against it (tasks/common.py ``capture_ref``).
+    ``runner``: where the tasks run: "thread" (this process), "dask" or "ray" (a cluster at ``address``,
+    or a local one when it is None); a deployment run chooses it with these parameters, and the work
+    then runs as a subflow on that task runner (docs/orchestration.md)."""
+    wanted = task_runner(runner, address)
+    ctx = FlowRunContext.get()
+    if wanted is not None and not (ctx and type(ctx.task_runner) is type(wanted)):
+        inner = rescene.with_options(task_runner=wanted)
+        st = inner(capture, run_dir, config, verify_capture, runner, address, return_state=True)
+        data = st.result(raise_on_failure=False)
+        return (Completed if st.is_completed() else Failed)(message=st.message, data=data)
     config = config or RunConfig()
     export_config = config.export
     logger = get_run_logger()
@@ -225,17 +240,38 @@ def run_flow(
     verify_capture: str = "stamp",
 ) -> State:
     """Run the flow in this process (Prefect's embedded mode when no server is configured); returns its state."""
-    flow_ = rescene
-    if runner == "dask":
-        from prefect_dask import DaskTaskRunner
-
-        flow_ = rescene.with_options(task_runner=DaskTaskRunner(address=address) if address else DaskTaskRunner())
-    elif runner != "thread":
-        raise ValueError(f"unknown runner {runner!r}; use 'thread' or 'dask'")
+    wanted = task_runner(runner, address)
+    flow_ = rescene if wanted is None else rescene.with_options(task_runner=wanted)
     return flow_(
         capture=str(capture),
         run_dir=str(run_dir),
         config=config or RunConfig(),
         verify_capture=verify_capture,
+        runner=runner,
+        address=address,
         return_state=True,
     )
+
+
+RUNNERS = ("thread", "dask", "ray")
+
+
+def task_runner(runner: str, address: str | None = None):
+    """The Prefect task runner named ``runner`` (None for "thread", the flow's default): Dask through
+    prefect-dask, Ray through prefect-ray (the ``ray`` extra); ``address`` is the cluster's scheduler
+    (``tcp://host:8786``) or Ray head (``ray://host:10001``), None for a local cluster."""
+    if runner == "thread":
+        return None
+    if runner == "dask":
+        from prefect_dask import DaskTaskRunner
+
+        return DaskTaskRunner(address=address) if address else DaskTaskRunner()
+    if runner == "ray":
+        try:
+            from prefect_ray import RayTaskRunner
+        except ImportError as err:
+            raise ValueError(
+                f"runner 'ray' needs prefect-ray on the worker: pip install 'rescene[ray]' ({err})"
+            ) from err
+        return RayTaskRunner(address=address) if address else RayTaskRunner()
+    raise ValueError(f"unknown runner {runner!r}; use one of {', '.join(RUNNERS)}")
