@@ -3,7 +3,7 @@
 ``RunPaths(run_dir)`` names every file and folder the pipeline reads or writes under ``RUN/``; code asks
 it for a path instead of joining literals. The templates below are the layout itself (docs/run-directory.md
 lists the same paths, checked by tests/test_paths.py); ``{instance}`` is an instance id, ``{frame}`` a
-key-frame index, ``{node}`` a scene node name, ``{name}`` a run-log segment name.
+key-frame index, ``{node}`` a scene node name, ``{name}`` a run-log segment name, ``{view}`` a VQA view id.
 """
 
 from __future__ import annotations
@@ -56,6 +56,10 @@ REPORT_MD = "eval/report.md"
 REPORT_HTML = "eval/report.html"
 FIGURES = "eval/figures/"
 VQA = "vqa/"
+VQA_QUESTIONS = "vqa/questions.jsonl"
+VQA_SUMMARY = "vqa/summary.json"
+VQA_VIEWS = "vqa/views/"
+VQA_VIEW = "vqa/views/{view}.png"
 
 # run log
 RUN_LOG = "logs/run.mcap"
@@ -65,6 +69,13 @@ AFTER_REGISTRATION = "logs/after_registration.json"
 
 TEMPLATES: dict[str, str] = {k: v for k, v in dict(globals()).items() if k.isupper() and isinstance(v, str)}
 """Every path of the layout by its constant's name (a trailing ``/`` marks a folder)."""
+
+
+def in_folder(folder: str | Path, template: str, folder_template: str, **values: object) -> Path:
+    """The path of ``template`` when the folder ``folder_template`` of the layout is ``folder``: for a stage
+    that writes its files into a folder the caller chooses (the run's, or another one with the same layout),
+    e.g. ``in_folder(out, FRAME_JSON, SCENEGRAPH, frame=3)`` is ``out/frames/3.json``."""
+    return Path(folder) / Path(template.format(**values)).relative_to(folder_template)
 
 
 @dataclass(frozen=True)
@@ -232,6 +243,21 @@ class RunPaths:
     @property
     def vqa(self) -> Path:
         return self._at(VQA)
+
+    @property
+    def vqa_questions(self) -> Path:
+        return self._at(VQA_QUESTIONS)
+
+    @property
+    def vqa_summary(self) -> Path:
+        return self._at(VQA_SUMMARY)
+
+    @property
+    def vqa_views(self) -> Path:
+        return self._at(VQA_VIEWS)
+
+    def vqa_view(self, view: str) -> Path:
+        return self._at(VQA_VIEW, view=view)
 
     # run log
     @property

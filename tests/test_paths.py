@@ -11,7 +11,7 @@ from rescene_core import paths
 from rescene_core.paths import RunPaths
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "run-directory.md"
-PLACEHOLDERS = {"{instance}": "<id>", "{frame}": "<t>", "{node}": "<node>", "{name}": "<name>"}
+PLACEHOLDERS = {"{instance}": "<id>", "{frame}": "<t>", "{node}": "<node>", "{name}": "<name>", "{view}": "<view>"}
 
 
 def _doc_form(template: str) -> str:
@@ -34,7 +34,7 @@ def test_every_runpaths_path_is_documented_and_every_documented_path_is_named():
 def test_every_template_has_an_accessor_that_gives_it():
     """Each path of the layout is reachable through RunPaths (a property or a method of the item)."""
     run = RunPaths("/runs/r")
-    values = {"instance": 7, "frame": 12, "node": "obj_7_chair", "name": "registration-000007"}
+    values = {"instance": 7, "frame": 12, "node": "obj_7_chair", "name": "registration-000007", "view": "view_003"}
     reached = set()
     for name in dir(RunPaths):
         if name.startswith("_") or name in ("root", "rel"):
@@ -63,3 +63,10 @@ def test_item_paths_and_relative_form():
     assert run.rel(run.asset_glb(12)) == "instances/12/asset.glb"
     with pytest.raises(ValueError):
         run.rel("/elsewhere/x.json")
+
+
+def test_in_folder_places_a_template_under_a_chosen_folder():
+    assert paths.in_folder("/tmp/sg", paths.FRAME_JSON, paths.SCENEGRAPH, frame=3) == Path("/tmp/sg/frames/3.json")
+    assert paths.in_folder("/tmp/q", paths.VQA_VIEW, paths.VQA, view="view_001") == Path("/tmp/q/views/view_001.png")
+    with pytest.raises(ValueError):
+        paths.in_folder("/tmp/q", paths.GRAPH, paths.VQA)

@@ -91,7 +91,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         ("evaluation report", run.report_md),
         ("run log (open in Foxglove Studio; `rescene log` summarises it)", run.run_log),
         ("run manifest", run.manifest),
-        ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run.vqa / "questions.jsonl"),
+        ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run.vqa_questions),
     ]
     looks += [("picture", p) for p in sorted(out.glob(f"{capture.stem}*.png"))]
     for what, path in looks:

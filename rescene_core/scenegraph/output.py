@@ -14,6 +14,7 @@ from typing import Any
 from rescene_core.capture import Capture
 from rescene_core.config import SceneGraphConfig
 from rescene_core.io import write_bytes_atomic, write_json_atomic
+from rescene_core.paths import FRAME_JSON, FRAME_PNG, GRAPH, GRAPH_PNG, SCENEGRAPH, in_folder
 from rescene_core.records import RoomShell, SceneGraph
 from rescene_core.scenegraph.frame import FramePrediction, render_overlay
 from rescene_core.scenegraph.fusion import FusionReport
@@ -23,10 +24,9 @@ from rescene_core.scenegraph.plot import plot_graph
 
 def write_frame(out_dir: str | Path, capture: Capture, prediction: FramePrediction, config: SceneGraphConfig) -> None:
     """Write ``frames/<t>.json`` and ``frames/<t>.png`` under ``out_dir`` (the run's scenegraph/)."""
-    frames = Path(out_dir) / "frames"
-    write_json_atomic(frames / f"{prediction.frame}.json", prediction.to_json())
+    write_json_atomic(in_folder(out_dir, FRAME_JSON, SCENEGRAPH, frame=prediction.frame), prediction.to_json())
     _, image, _ = render_overlay(capture, prediction.frame, config)
-    write_bytes_atomic(frames / f"{prediction.frame}.png", png_bytes(image))
+    write_bytes_atomic(in_folder(out_dir, FRAME_PNG, SCENEGRAPH, frame=prediction.frame), png_bytes(image))
 
 
 def graph_json(graph: SceneGraph, capture: Capture, report: FusionReport | None = None) -> dict[str, Any]:
@@ -48,7 +48,6 @@ def write_graph(
     report: FusionReport | None = None,
 ) -> Path:
     """Write ``graph.json`` and ``graph.png`` under ``out_dir``; returns the JSON path."""
-    out = Path(out_dir)
-    path = write_json_atomic(out / "graph.json", graph_json(graph, capture, report))
-    write_bytes_atomic(out / "graph.png", plot_graph(graph, capture, shell))
+    path = write_json_atomic(in_folder(out_dir, GRAPH, SCENEGRAPH), graph_json(graph, capture, report))
+    write_bytes_atomic(in_folder(out_dir, GRAPH_PNG, SCENEGRAPH), plot_graph(graph, capture, shell))
     return path

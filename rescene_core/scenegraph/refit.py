@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rescene_core.io import read_json
+from rescene_core.paths import RunPaths
 from rescene_core.records import SceneGraph
 from rescene_core.scenegraph.category import CategoryPrior, load_prior, refit_prior, save_prior
 
@@ -18,8 +19,8 @@ from rescene_core.scenegraph.category import CategoryPrior, load_prior, refit_pr
 def graphs_from(path: str | Path) -> tuple[SceneGraph, dict[int, str]]:
     """(graph, instance id -> label) from a capture with ground truth, a graph.json, or a run directory."""
     path = Path(path)
-    if path.is_dir() and (path / "scenegraph" / "graph.json").exists():
-        path = path / "scenegraph" / "graph.json"
+    if path.is_dir() and RunPaths(path).graph.exists():
+        path = RunPaths(path).graph
     if path.is_file():
         data = read_json(path)
         if "edges" not in data or "nodes" not in data:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from rescene_core.io import write_bytes_atomic, write_json_atomic
+from rescene_core.paths import VQA, VQA_QUESTIONS, VQA_SUMMARY, VQA_VIEW, VQA_VIEWS, RunPaths, in_folder
 from rescene_core.vqa.config import VqaConfig
 from rescene_core.vqa.generate import Category, GeneratedQuestions, VqaItem, generate_questions
 from rescene_core.vqa.render import RENDER_BACKEND, Viewpoint, make_renderer, sample_viewpoints, save_png
@@ -80,13 +81,12 @@ def _summary(scene: VqaScene, config: VqaConfig, viewpoints: list[Viewpoint], ge
 
 def write_vqa(dataset: VqaDataset, out_dir: str | Path) -> dict[str, Path]:
     """Write questions.jsonl, views/*.png and summary.json under ``out_dir``; returns their paths."""
-    out = Path(out_dir)
     for view_id, rgb in sorted(dataset.images.items()):
-        save_png(out / "views" / f"{view_id}.png", rgb)
+        save_png(in_folder(out_dir, VQA_VIEW, VQA, view=view_id), rgb)
     lines = "".join(json.dumps(item.to_json()) + "\n" for item in dataset.items)
-    write_bytes_atomic(out / "questions.jsonl", lines.encode())
-    write_json_atomic(out / "summary.json", dataset.summary)
-    return {"questions": out / "questions.jsonl", "summary": out / "summary.json", "views": out / "views"}
+    questions = write_bytes_atomic(in_folder(out_dir, VQA_QUESTIONS, VQA), lines.encode())
+    summary = write_json_atomic(in_folder(out_dir, VQA_SUMMARY, VQA), dataset.summary)
+    return {"questions": questions, "summary": summary, "views": in_folder(out_dir, VQA_VIEWS, VQA)}
 
 
 def vqa_for_run(run_dir: str | Path, out_dir: str | Path | None = None, config: VqaConfig | None = None) -> dict:
@@ -94,7 +94,7 @@ def vqa_for_run(run_dir: str | Path, out_dir: str | Path | None = None, config: 
     summary."""
     scene = read_run(run_dir)
     dataset = build_vqa(scene, config)
-    write_vqa(dataset, Path(run_dir) / "vqa" if out_dir is None else out_dir)
+    write_vqa(dataset, RunPaths(run_dir).vqa if out_dir is None else out_dir)
     return dataset.summary
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core.geometry.camera import intrinsics_from_fov, look_at
+from rescene_core.paths import VQA, VQA_VIEW, in_folder
 from rescene_core.records import Camera
 from rescene_core.render import Light, RenderedFrame, Renderer, RenderMesh, Shading, Texture
 from rescene_core.vqa.config import VqaConfig
@@ -54,7 +55,7 @@ class Viewpoint:
     def to_json(self) -> dict[str, Any]:
         out = {
             "id": self.id,
-            "image": f"views/{self.id}.png",
+            "image": in_folder(".", VQA_VIEW, VQA, view=self.id).as_posix(),
             "target": self.target,
             "eye": self.eye.tolist(),
             "world_from_cam": np.asarray(self.camera.world_from_cam).tolist(),

@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core import paths
+from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, Layout, Relation, RoomShell, Root, SceneGraph
 
 
@@ -174,18 +176,16 @@ def _read(path: Path, what: str) -> Any:
         raise VqaInputError(f"{path}: not valid JSON ({err})") from err
 
 
-def _labels(run: Path) -> dict[int, str]:
+def _labels(run: RunPaths) -> dict[int, str]:
     """Instance labels from scene/scene.json, else manifest.json, else instances/<id>/asset.json metadata."""
-    scene_json = run / "scene" / "scene.json"
-    if scene_json.is_file():
-        doc = _read(scene_json, "exported scene")
+    if run.scene_json.is_file():
+        doc = _read(run.scene_json, "exported scene")
         return {int(o["instance"]): str(o["label"]) for o in doc.get("objects", [])}
-    manifest = run / "manifest.json"
-    if manifest.is_file():
-        rows = _read(manifest, "run manifest").get("instances", [])
+    if run.manifest.is_file():
+        rows = _read(run.manifest, "run manifest").get("instances", [])
         return {int(r["instance"]): str(r["label"]) for r in rows if "label" in r}
     out: dict[int, str] = {}
-    for asset_json in sorted((run / "instances").glob("*/asset.json")):
+    for asset_json in sorted(run.instances.glob(f"*/{Path(paths.ASSET_META).name}")):
         label = _read(asset_json, "asset metadata").get("metadata", {}).get("label")
         if label is not None:
             out[int(asset_json.parent.name)] = str(label)
@@ -202,46 +202,44 @@ def read_run(run_dir: str | Path) -> VqaScene:
     from rescene_core.assets import load_asset
     from rescene_core.geometry import sim3
 
-    run = Path(run_dir)
-    if not run.is_dir():
-        raise VqaInputError(f"{run}: not a directory (expected a run directory written by `rescene run`)")
-    shell = RoomShell.from_json(_read(run / "shell.json", "room shell"))
-    graph_path = run / "scenegraph" / "graph.json"
+    run = RunPaths(run_dir)
+    if not run.root.is_dir():
+        raise VqaInputError(f"{run.root}: not a directory (expected a run directory written by `rescene run`)")
+    shell = RoomShell.from_json(_read(run.shell, "room shell"))
+    graph_path = run.graph
     missing_graph = None
     if graph_path.is_file():
         graph = SceneGraph.from_json(_read(graph_path, "fused scene graph"))
     else:
         graph, missing_graph = SceneGraph(()), f"{graph_path}: missing (the scene-graph stage did not finish)"
-    layout = Layout.from_json(_read(run / "layout.json", "attachment layout"))
+    layout = Layout.from_json(_read(run.layout, "attachment layout"))
     labels = _labels(run)
     objects = []
     missing: list[tuple[int, str]] = []
     for inst, world_from_asset in sorted(layout.world_from_asset.items()):
-        inst_dir = run / "instances" / str(int(inst))
-        glb_name = "asset.glb"
-        if (inst_dir / "asset.json").is_file():
-            glb_name = _read(inst_dir / "asset.json", "asset metadata").get("glb", glb_name)
-        glb = inst_dir / glb_name
+        glb = run.asset_glb(inst)
+        if run.asset_meta(inst).is_file():
+            glb = run.instance_dir(inst) / _read(run.asset_meta(inst), "asset metadata").get("glb", glb.name)
         if not glb.is_file():
             missing.append((int(inst), f"{glb}: missing asset mesh"))
             continue
         if int(inst) not in labels:
-            missing.append((int(inst), "no label in scene/scene.json or manifest.json"))
+            missing.append((int(inst), f"no label in {paths.SCENE_JSON} or {paths.MANIFEST}"))
             continue
         asset = load_asset(glb, int(inst))
         verts = sim3.apply(np.asarray(world_from_asset, np.float64), asset.vertices)
         objects.append(VqaObject.from_mesh(int(inst), labels[int(inst)], verts, asset.faces))
     scene_id = ""
-    if (run / "scene" / "scene.json").is_file():
-        scene_id = str(_read(run / "scene" / "scene.json", "exported scene").get("scene_id", ""))
+    if run.scene_json.is_file():
+        scene_id = str(_read(run.scene_json, "exported scene").get("scene_id", ""))
     if not objects:
-        raise VqaInputError(f"{run / 'layout.json'}: no placed objects, nothing to ask about")
+        raise VqaInputError(f"{run.layout}: no placed objects, nothing to ask about")
     return VqaScene(
         tuple(objects),
         graph,
         shell,
         scene_id=scene_id,
-        source=str(run),
+        source=str(run.root),
         missing_graph=missing_graph,
         missing_instances=tuple(missing),
     )
