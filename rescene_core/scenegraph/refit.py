@@ -13,7 +13,7 @@ from pathlib import Path
 from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import SceneGraph
-from rescene_core.scenegraph.category import CategoryPrior, load_prior, refit_prior, save_prior
+from rescene_core.scenegraph.category import CategoryPrior, load_prior, refit_prior
 
 
 def graphs_from(path: str | Path) -> tuple[SceneGraph, dict[int, str]]:
@@ -46,11 +46,3 @@ def refit_from_paths(paths: list[str | Path], add_to: str | Path | None = None) 
     if base is not None and add_to is not None:
         provenance += f"; added to {Path(add_to).name} ({base.provenance})"
     return refit_prior((graphs_from(p) for p in paths), provenance, base)
-
-
-def prior_refit_command(paths: list[str | Path], out: str | Path, add_to: str | Path | None = None) -> int:
-    prior = refit_from_paths(paths, add_to)
-    save_prior(out, prior)
-    print(f"wrote {out}: {len(prior.counts)} child categories")
-    print(f"use it with --set scenegraph.fusion.prior_path={out}")
-    return 0

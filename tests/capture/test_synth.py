@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from flows.cli import main
 from rescene_core.capture import check_capture, open_capture
 from rescene_core.capture.ground_truth import read_ground_truth
-from rescene_core.capture.synth import make_scene, synth_command, write_synth
+from rescene_core.capture.synth import make_scene, write_synth
 
 
 @pytest.fixture(scope="module")
@@ -39,10 +40,11 @@ def test_unknown_preset_is_a_clear_error():
         make_scene("huge", 0)
 
 
-def test_synth_command_prints_and_returns_zero(tmp_path, capsys):
-    assert synth_command(tmp_path / "c.zarr", preset="tiny", seed=2) == 0
+def test_synth_cli_writes_the_capture_and_prints_what_it_made(tmp_path, capsys):
+    assert main(["synth", str(tmp_path / "c.zarr"), "--preset", "tiny", "--seed", "2"]) == 0
     out = capsys.readouterr().out
     assert "wrote" in out and "objects" in out
+    assert len(open_capture(tmp_path / "c.zarr").object_instances) >= 1
 
 
 def test_same_seed_same_arrays(tiny):

@@ -7,7 +7,7 @@ docs/synthetic-captures.md describes the presets, the error dials, the ground tr
 """
 
 from rescene_core.capture.synth.presets import PRESETS, SynthPreset, get_preset
-from rescene_core.capture.synth.scene import SynthScene, make_scene, synth_command, write_scene, write_synth
+from rescene_core.capture.synth.scene import SynthScene, make_scene, write_scene, write_synth
 
 __all__ = [
     "PRESETS",
@@ -15,7 +15,6 @@ __all__ = [
     "SynthScene",
     "get_preset",
     "make_scene",
-    "synth_command",
     "write_scene",
     "write_synth",
 ]

@@ -414,25 +414,3 @@ def write_scene(
         out.update(write_pictures(path, scene))
         scene.timings["pictures"] = time.perf_counter() - t
     return out
-
-
-def synth_command(out: str | Path, preset: str = "standard", seed: int = 0, overwrite: bool = False) -> int:
-    """`rescene synth`: write the capture and its pictures, print what was made and where; exit code."""
-    t = time.perf_counter()
-    scene = make_scene(preset, seed)
-    paths = write_scene(out, scene, overwrite=overwrite, pictures=True)
-    elapsed = time.perf_counter() - t
-    counts: dict[str, int] = {}
-    for e in scene.events:
-        counts[e["kind"]] = counts.get(e["kind"], 0) + 1
-    a = scene.arrays
-    print(
-        f"wrote {paths['capture']}: {a.rgb.shape[0]} frames {a.rgb.shape[2]}x{a.rgb.shape[1]}, "
-        f"{len(scene.gt.objects)} objects, {len(a.instances)} instances, {len(a.points)} points "
-        f"({elapsed:.1f} s)"
-    )
-    print(f"panoptic errors: {', '.join(f'{k} {v}' for k, v in sorted(counts.items())) or 'none'}")
-    for key, p in paths.items():
-        if key != "capture":
-            print(f"{key}: {p}")
-    return 0
