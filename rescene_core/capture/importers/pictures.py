@@ -33,7 +33,7 @@ def contact_sheet(capture: Capture, frames: int = 12, columns: int = 4, tile_wid
         ids = np.asarray(capture.instance_masks[t])
         img = Image.fromarray(overlay(np.asarray(capture.rgb[t]), ids, colors, faint=structural))
         x0, y0 = (k % columns) * tw, (k // columns) * (th + 14)
-        sheet.paste(img.resize((tw, th), Image.BILINEAR), (x0, y0 + 14))
+        sheet.paste(img.resize((tw, th), Image.Resampling.BILINEAR), (x0, y0 + 14))
         draw.text((x0 + 3, y0 + 1), f"frame {t}", fill=(0, 0, 0))
         counts = np.bincount(ids.ravel())
         for i in np.flatnonzero(counts > max(30, ids.size // 400)):

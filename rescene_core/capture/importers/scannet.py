@@ -230,6 +230,8 @@ def read_mesh_annotation(
         mesh = trimesh.load(ply, process=False, force="mesh")
     except Exception as err:
         raise ImportInputError(f"{ply}: unreadable mesh ({err})") from err
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise ImportInputError(f"{ply}: not a triangle mesh ({type(mesh).__name__})")
     try:
         seg_idx = np.asarray(json.loads(segs.read_text())["segIndices"], np.int64)
         groups = json.loads(agg.read_text())["segGroups"]
