@@ -106,3 +106,26 @@ def test_split_runs_skips_and_reports(prefect_server, fake_stages, box_capture_p
     assert state.is_completed(), state.message
     assert pq.read_table(out / "mini_summary.parquet").to_pylist()[0]["skipped"] is False
     assert fake_stages["registration"] == 3
+
+
+def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path):
+    """A scene whose deployment run no worker takes is TimedOut after timeout_s; the split still reports."""
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.actions import WorkPoolCreate
+
+    from deployments.deploy import register
+    from flows.split import rescene_split
+
+    with get_client(sync_client=True) as client:
+        client.create_work_pool(WorkPoolCreate(name="no-workers", type="process"), overwrite=True)
+    spec = {"name": "idle", "entrypoint": "flows/scene.py:rescene", "work_pool": {"name": "no-workers"}}
+    register(spec)
+    split = tmp_path / "idle.txt"
+    split.write_text(f"{box_capture_path} boxes\n")
+    out = tmp_path / "runs"
+    state = rescene_split(
+        str(split), str(out), deployment="rescene/idle", timeout_s=2.0, poll_interval_s=0.5, return_state=True
+    )
+    assert state.is_failed() and "boxes (TimedOut: not final after 2 s" in state.message
+    row = pq.read_table(out / "idle_summary.parquet").to_pylist()[0]
+    assert row["state"] == "TimedOut" and row["flow_run_id"]
