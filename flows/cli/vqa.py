@@ -3,6 +3,12 @@
 rescene vqa generate RUN [--out DIR] [--views N] [--seed S] [--walk]      (also: rescene vqa RUN ...)
 rescene vqa build SOURCE... --out DS [--synth PRESET --seeds 0-29] [--test-ratio R] [--per-category N]
 rescene vqa eval DS [--endpoint URL --model NAME] [--no-blind] [--concurrency N] [--timeout S]
+rescene vqa faithfulness RUN CAPTURE [--steps N] [--json FILE]
+
+generate, build and faithfulness start from the `vqa` section of RunConfig (`--config FILE`, `--set
+vqa.FIELD=VALUE`, as for `rescene run`); their flags apply over it. build and faithfulness have data-set
+defaults of their own (e.g. 60 questions per category from a 24-step walk) for the fields that neither
+the config nor a flag names.
 """
 
 from __future__ import annotations
@@ -13,6 +19,32 @@ import sys
 from pathlib import Path
 
 ACTIONS = ("generate", "build", "eval", "faithfulness")
+BUILD_DEFAULTS = {"per_category": 60, "sampling": "walk", "walks": 1, "walk_steps": 24, "seed": 0}
+"""VqaConfig fields of `vqa build` when neither --config/--set nor a flag names them."""
+FAITHFULNESS_DEFAULTS = {"per_category": 60, "walk_steps": 24, "seed": 0}
+"""VqaConfig fields of `vqa faithfulness` when neither --config/--set nor a flag names them."""
+
+
+def _config_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", type=Path, help="YAML config (sections of RunConfig); its vqa section is the start")
+    p.add_argument("--set", action="append", default=[], metavar="vqa.FIELD=VALUE", help="override a config field")
+
+
+def _vqa_config(args: argparse.Namespace, defaults: dict, flags: dict):
+    """RunConfig().vqa, or that of --config and --set; ``defaults`` for the fields neither of them names,
+    then the ``flags`` that were given (None: not given)."""
+    import yaml
+
+    from rescene_core.config import load_config
+
+    base = load_config(args.config, args.set).vqa
+    named = {k.partition("=")[0].strip().split(".")[1] for k in args.set if k.strip().startswith("vqa.")}
+    if args.config is not None:
+        section = (yaml.safe_load(Path(args.config).read_text()) or {}).get("vqa") or {}
+        named |= set(section)
+    update = {k: v for k, v in defaults.items() if k not in named}
+    update |= {k: v for k, v in flags.items() if v is not None}
+    return type(base).model_validate({**base.model_dump(), **update})
 
 
 def _generate_parser() -> argparse.ArgumentParser:
@@ -22,6 +54,7 @@ def _generate_parser() -> argparse.ArgumentParser:
     p.add_argument("--views", type=int, help="viewpoints to sample and render (default VqaConfig.views)")
     p.add_argument("--seed", type=int, help="seed of every random choice (default VqaConfig.seed)")
     p.add_argument("--walk", action="store_true", help="views from the agent's egocentric walk")
+    _config_args(p)
     return p
 
 
@@ -35,11 +68,12 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=parse_seeds, default=None, help="seeds for --synth, e.g. 0-29")
     p.add_argument("--test-ratio", type=float, default=None, help="fraction of scenes in the test split (3/13)")
     p.add_argument("--split-seed", type=int, default=0)
-    p.add_argument("--per-category", type=int, default=60, help="most questions per category and scene")
-    p.add_argument("--walks", type=int, default=1, help="agent walks per scene")
-    p.add_argument("--steps", type=int, default=24, help="actions (captures) per walk")
-    p.add_argument("--seed", type=int, default=0, help="seed of scene k is SEED + k")
-    p.add_argument("--views", choices=["walk", "target"], default="walk", help="how views are taken")
+    p.add_argument("--per-category", type=int, help="most questions per category and scene (default 60)")
+    p.add_argument("--walks", type=int, help="agent walks per scene (default 1)")
+    p.add_argument("--steps", type=int, help="actions (captures) per walk (default 24)")
+    p.add_argument("--seed", type=int, help="seed of scene k is SEED + k (default 0)")
+    p.add_argument("--views", choices=["walk", "target"], help="how views are taken (default walk)")
+    _config_args(p)
     return p
 
 
@@ -66,19 +100,20 @@ def _faithfulness_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("run", type=Path, help="run directory written by `rescene run`")
     p.add_argument("capture", type=Path, help="the run's capture, with ground truth (gt/)")
-    p.add_argument("--steps", type=int, default=24, help="actions (captures) of the walk")
-    p.add_argument("--per-category", type=int, default=60)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--steps", type=int, help="actions (captures) of the walk (default 24)")
+    p.add_argument("--per-category", type=int, help="most questions per category (default 60)")
+    p.add_argument("--seed", type=int, help="seed of every random choice (default 0)")
     p.add_argument("--json", type=Path, help="also write the result here")
+    _config_args(p)
     return p
 
 
 def _cmd_faithfulness(args: argparse.Namespace) -> int:
     from rescene_core.io import write_json_atomic
-    from rescene_core.vqa import VqaConfig
     from rescene_core.vqa.oracle import run_faithfulness
 
-    config = VqaConfig(sampling="walk", walk_steps=args.steps, per_category=args.per_category, seed=args.seed)
+    flags = {"sampling": "walk", "walk_steps": args.steps, "per_category": args.per_category, "seed": args.seed}
+    config = _vqa_config(args, FAITHFULNESS_DEFAULTS, flags)
     result = run_faithfulness(args.run, args.capture, config)
     print(
         f"{result['questions']} questions from {args.run} ({result['objects']['run']} objects; ground truth "
@@ -98,17 +133,12 @@ def _cmd_faithfulness(args: argparse.Namespace) -> int:
 
 def _cmd_generate(args: argparse.Namespace) -> int:
     from rescene_core.paths import RunPaths
-    from rescene_core.vqa import VqaConfig, vqa_for_run
+    from rescene_core.vqa import vqa_for_run
 
-    overrides: dict = {}
-    if args.views is not None:
-        overrides["views"] = args.views
-    if args.seed is not None:
-        overrides["seed"] = args.seed
-    if args.walk:
-        overrides["sampling"] = "walk"
+    flags = {"views": args.views, "seed": args.seed, "sampling": "walk" if args.walk else None}
+    config = _vqa_config(args, {}, flags)
     out_dir = RunPaths(args.run).vqa if args.out is None else args.out
-    summary = vqa_for_run(args.run, out_dir, VqaConfig(**overrides))
+    summary = vqa_for_run(args.run, out_dir, config)
     print(f"{summary['questions']} questions, {len(summary['views'])} views ({summary['render_backend']}) -> {out_dir}")
     for cat, n in summary["counts"].items():
         dropped = sum(summary["filtered"][cat].values())
@@ -125,7 +155,6 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 def _cmd_build(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from rescene_core.vqa import VqaConfig
     from rescene_core.vqa.build import PAPER_TEST_RATIO, build_dataset, scene_source
 
     sources = [scene_source(s) for s in args.sources]
@@ -134,9 +163,14 @@ def _cmd_build(args: argparse.Namespace) -> int:
     if not sources:
         print("no sources: give run directories, captures or --synth PRESET --seeds A-B", file=sys.stderr)
         return 2
-    config = VqaConfig(
-        seed=args.seed, per_category=args.per_category, sampling=args.views, walks=args.walks, walk_steps=args.steps
-    )
+    flags = {
+        "seed": args.seed,
+        "per_category": args.per_category,
+        "sampling": args.views,
+        "walks": args.walks,
+        "walk_steps": args.steps,
+    }
+    config = _vqa_config(args, BUILD_DEFAULTS, flags)
     ratio = PAPER_TEST_RATIO if args.test_ratio is None else args.test_ratio
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=False) as bar:

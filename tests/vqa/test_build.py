@@ -84,6 +84,21 @@ def test_sources_and_cli(tmp_path, capsys):
     assert (tmp_path / "ds" / "card.json").is_file()
 
 
+def test_build_starts_from_the_run_config_and_applies_flags_over_it(tmp_path, capsys):
+    config = tmp_path / "config.yaml"
+    config.write_text("vqa:\n  per_category: 7\n  min_confidence: 0.9\n  walk_steps: 9\n")
+    args = ["vqa", "build", "--synth", "tiny", "--seeds", "0", "--out", str(tmp_path / "ds")]
+    args += ["--config", str(config), "--set", "vqa.walk_steps=2", "--per-category", "4"]
+    assert main(args) == 0
+    used = json.loads((tmp_path / "ds" / "card.json").read_text())["config"]
+    assert used["per_category"] == 4  # the flag over the file
+    assert used["min_confidence"] == 0.9  # the file: no flag for it
+    assert used["walk_steps"] == 2  # --set over the file
+    assert used["sampling"] == "walk" and used["walks"] == 1  # the data-set defaults where neither names them
+    assert main(["vqa", "build", "--synth", "tiny", "--out", str(tmp_path / "x"), "--set", "vqa.nope=1"]) == 2
+    assert "no setting 'nope'" in capsys.readouterr().err
+
+
 def test_capture_source_uses_its_ground_truth(tmp_path):
     from rescene_core.capture.synth import write_synth
     from rescene_core.vqa import VqaConfig
