@@ -40,6 +40,8 @@ GRAPH_PNG = "scenegraph/graph.png"
 SCENE = "scene/"
 SCENE_GLB = "scene/scene.glb"
 SCENE_USDA = "scene/scene.usda"
+SCENE_USDC = "scene/scene.usdc"
+SCENE_MJCF_DIR = "scene/mjcf/"
 SCENE_MJCF = "scene/mjcf/scene.xml"
 SCENE_JSON = "scene/scene.json"
 EXPORT_REPORT = "scene/export_report.json"
@@ -187,6 +189,14 @@ class RunPaths:
     @property
     def scene_usda(self) -> Path:
         return self._at(SCENE_USDA)
+
+    @property
+    def scene_usdc(self) -> Path:
+        return self._at(SCENE_USDC)
+
+    @property
+    def scene_mjcf_dir(self) -> Path:
+        return self._at(SCENE_MJCF_DIR)
 
     @property
     def scene_mjcf(self) -> Path:

@@ -36,7 +36,7 @@ def _cmd_simcheck(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from rescene_core.export import ExportConfig
-    from rescene_core.export.simulation import export_run
+    from rescene_core.export.scene import export_run
 
     hashes = export_run(args.run, ExportConfig(usd_binary=args.usdc))
     print(

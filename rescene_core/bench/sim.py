@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.simulation import export_run
+from rescene_core.export.scene import export_run
 from rescene_core.io import read_json
 from rescene_core.sim import SimcheckConfig, simcheck_run
 

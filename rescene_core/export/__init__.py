@@ -2,7 +2,8 @@
 
 from rescene_core.export.objects import ExportObject, node_name
 from rescene_core.export.points import read_scene_points, write_scene_points
-from rescene_core.export.scene import ExportConfig, build_scene, export_scene, shell_meshes
+from rescene_core.export.scene import ExportConfig, build_scene, export_scene
+from rescene_core.export.shell import shell_meshes
 
 __all__ = [
     "ExportConfig",

@@ -22,6 +22,7 @@ mesh it is keyed on, so entries written before the exact pieces existed keep the
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import subprocess
@@ -35,6 +36,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+
+from rescene_core.io import write_bytes_atomic
 
 COACD_PARAMS_VERSION = 1
 """Bumped when the CoACD keywords change meaning, so old cache entries are not reused."""
@@ -204,17 +207,16 @@ def _convex_pieces(raw: list[tuple[NDArray, NDArray]]) -> list[tuple[NDArray, ND
 
 
 def _save(path: Path, dec: Decomposition) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.npz")
+    data = io.BytesIO()
     np.savez(
-        tmp,
+        data,
         vertices=np.concatenate([v for v, _ in dec.pieces]),
         faces=np.concatenate([f for _, f in dec.pieces]),
         vertex_offsets=np.concatenate([[0], np.cumsum([len(v) for v, _ in dec.pieces])]).astype(np.int64),
         face_offsets=np.concatenate([[0], np.cumsum([len(f) for _, f in dec.pieces])]).astype(np.int64),
         meta=json.dumps({"method": dec.method, "seconds": dec.seconds, "notes": list(dec.notes)}),
     )
-    os.replace(tmp, path)
+    write_bytes_atomic(path, data.getvalue())
 
 
 def _load(path: Path) -> Decomposition | None:

@@ -25,6 +25,9 @@ from scipy.spatial.transform import Rotation
 from rescene_core.export.collision import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
+from rescene_core.export.shell import floor_height
+from rescene_core.geometry.sim3 import scale_of
+from rescene_core.io import write_bytes_atomic
 from rescene_core.records import Relation, RoomShell, SceneGraph
 
 MESH_DIR = "meshes"
@@ -128,8 +131,6 @@ def build_spec(
     """
     import mujoco
 
-    from rescene_core.export.scene import floor_height
-
     spec = mujoco.MjSpec()
     spec.modelname = "rescene"
     spec.meshdir = MESH_DIR
@@ -174,7 +175,7 @@ def build_spec(
     for obj in sorted(objects, key=lambda o: o.instance):
         name = obj.node_name
         pose = np.asarray(obj.world_from_asset, np.float64)
-        scale = float(np.cbrt(abs(np.linalg.det(pose[:3, :3])))) or 1.0
+        scale = scale_of(pose) or 1.0
         u, _, vt = np.linalg.svd(pose[:3, :3] / scale)
         rot = u @ vt
         quat_xyzw = Rotation.from_matrix(rot).as_quat()
@@ -250,8 +251,6 @@ def write_mjcf(spec: Any, out_dir: Path) -> Path:
 
     spec.compile()
     path = out_dir / "scene.xml"
-    tmp = out_dir / "scene.xml.tmp"
-    tmp.write_text(spec.to_xml())
-    tmp.replace(path)
+    write_bytes_atomic(path, spec.to_xml().encode())
     mujoco.MjModel.from_xml_path(str(path))
     return path

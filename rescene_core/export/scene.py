@@ -20,46 +20,14 @@ from rescene_core.config import ExportConfig
 from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
+from rescene_core.export.shell import shell_meshes
+from rescene_core.export.simulation import export_simulation
 from rescene_core.geometry import sim3
-from rescene_core.io import hash_file, hash_tree, write_bytes_atomic
+from rescene_core.io import hash_file, hash_tree, read_json, write_bytes_atomic
 from rescene_core.records import Missing, RoomShell, Root, SceneGraph, parent_to_json
 
 SCENE_FORMAT = "rescene-scene"
 SCENE_VERSION = 1
-
-
-def floor_height(shell: RoomShell) -> float:
-    """Height of the floor plane at the origin (m), from ``normal . x + offset = 0``."""
-    nz = shell.floor.normal[2]
-    return float(-shell.floor.offset / nz) if abs(nz) > 1e-9 else 0.0
-
-
-def shell_meshes(shell: RoomShell, config: ExportConfig) -> dict[str, trimesh.Trimesh]:
-    """Floor slab (the floor polygon extruded downwards) and one box per wall segment, world frame."""
-    from shapely.geometry import Polygon
-
-    out: dict[str, trimesh.Trimesh] = {}
-    z0 = floor_height(shell)
-    poly = Polygon(shell.floor_polygon)
-    if poly.is_valid and poly.area > 0:
-        slab = trimesh.creation.extrude_polygon(poly, config.floor_thickness)
-        slab.apply_translation([0.0, 0.0, z0 - config.floor_thickness])
-        out["shell_floor"] = slab
-    height = shell.ceiling_height if shell.ceiling_height else config.wall_height
-    for wall in shell.walls:
-        (x0, y0), (x1, y1) = wall.segment
-        length = float(np.hypot(x1 - x0, y1 - y0))
-        if length <= 0:
-            continue
-        box = trimesh.creation.box(extents=[length, config.wall_thickness, height])
-        yaw = float(np.arctan2(y1 - y0, x1 - x0))
-        normal = np.asarray(wall.plane.normal, dtype=np.float64)
-        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * config.wall_thickness / 2
-        world_from_box = trimesh.transformations.rotation_matrix(yaw, [0, 0, 1])
-        world_from_box[:3, 3] = centre
-        box.apply_transform(world_from_box)
-        out[f"shell_wall_{wall.id}"] = box
-    return out
 
 
 def build_scene(objects: Iterable[ExportObject], shell: RoomShell | None, config: ExportConfig) -> trimesh.Scene:
@@ -174,10 +142,46 @@ def export_scene(
     write_scene_points(out_dir / "points.zarr", list(objects), config)
     hashes["points.zarr"] = hash_tree(out_dir / "points.zarr")
     if config.simulation:
-        from rescene_core.export.simulation import MJCF_DIR, export_simulation
-
         sim = export_simulation(out_dir, list(objects), shell, graph, missing, config)
         for rel in sim.files:
             hashes[rel] = hash_file(out_dir / rel)
-        hashes[MJCF_DIR] = hash_tree(out_dir / MJCF_DIR)
+        hashes[sim.mjcf_dir] = hash_tree(out_dir / sim.mjcf_dir)
     return hashes
+
+
+def read_exported_scene(
+    scene_dir: str | Path,
+) -> tuple[list[ExportObject], RoomShell | None, SceneGraph, list[Missing], dict[str, Any]]:
+    """The objects, shell, graph, missing instances and other scene.json fields of an exported scene/."""
+    scene_dir = Path(scene_dir)
+    path = scene_dir / "scene.json"
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
+    doc = read_json(path)
+    objects = []
+    for entry in doc["objects"]:
+        mesh = trimesh.load(scene_dir / entry["mesh"], force="mesh", process=False)
+        registered = entry.get("registered_world_from_asset")
+        objects.append(
+            ExportObject(
+                int(entry["instance"]),
+                str(entry["label"]),
+                np.asarray(mesh.vertices, np.float64),
+                np.asarray(mesh.faces, np.int64),
+                np.asarray(entry["world_from_asset"], np.float64),
+                None if registered is None else np.asarray(registered, np.float64),
+            )
+        )
+    shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
+    graph = SceneGraph.from_json(doc.get("graph", {"edges": []}))
+    missing = [Missing.from_json(m) for m in doc.get("missing", [])]
+    known = {"format", "version", "units", "up", "objects", "graph", "shell", "shell_nodes", "missing"}
+    return objects, shell, graph, missing, {k: v for k, v in doc.items() if k not in known}
+
+
+def export_run(run_dir: str | Path, config: ExportConfig) -> dict[str, Any]:
+    """Write a run's scene/ exports again (GLB, scene.json, MJCF, USD, report) from its scene.json and
+    objects/; returns {file: sha256}."""
+    scene_dir = Path(run_dir) / "scene"
+    objects, shell, graph, missing, extra = read_exported_scene(scene_dir)
+    return export_scene(scene_dir, objects, shell, graph, missing, config, extra=extra)

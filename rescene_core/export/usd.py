@@ -14,19 +14,17 @@ scene-graph relation as custom attributes ``rescene:instance``, ``rescene:label`
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from rescene_core.config import ExportConfig
 from rescene_core.export.collision import Decomposition
 from rescene_core.export.mjcf import BodyRecord
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION
+from rescene_core.export.shell import shell_meshes
 from rescene_core.records import RoomShell, SceneGraph, parent_to_json
-
-if TYPE_CHECKING:
-    from rescene_core.export.scene import ExportConfig
 
 GRAVITY = 9.81
 """Magnitude of the PhysicsScene's gravity (m/s^2)."""
@@ -83,8 +81,6 @@ def write_usd(
 ) -> Path:
     """Write the stage (see the module doc) atomically; returns ``path``."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
-
-    from rescene_core.export.scene import shell_meshes
 
     tmp = path.with_name(path.stem + ".tmp" + path.suffix)
     stage = Usd.Stage.CreateNew(str(tmp))

@@ -15,6 +15,7 @@ seed.
 
 from __future__ import annotations
 
+import io
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -23,8 +24,9 @@ from typing import Any
 import numpy as np
 
 from rescene_core.config import SimcheckConfig
-from rescene_core.io import read_json, write_json_atomic
-from rescene_core.paths import SCENE_JSON, SCENE_MJCF, SIM_PICTURE, SIMCHECK
+from rescene_core.export.shell import floor_height
+from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
+from rescene_core.paths import RunPaths
 from rescene_core.records import RoomShell
 
 
@@ -129,8 +131,6 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
 
     floor_z, top_z, room = 0.0, np.inf, None
     if shell is not None:
-        from rescene_core.export.scene import floor_height
-
         floor_z = floor_height(shell)
         top_z = floor_z + (shell.ceiling_height or 2.5) + 0.5
         room = Polygon(shell.floor_polygon).buffer(config.escape_margin)
@@ -204,29 +204,27 @@ def draw_before_after(path: Path, result: SimcheckResult, motion: dict, shell: R
         f"after {s['seconds_simulated']} s{' with shake' if s['shake'] else ''}: {s['stable']}/{s['free']} free "
         f"objects stable; hollow = before, filled = after; grey = mounted"
     )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110)
     plt.close(fig)
-    tmp.replace(path)
-    return path
+    return write_bytes_atomic(path, png.getvalue())
 
 
 def simcheck_run(run_dir: str | Path, config: SimcheckConfig | None = None) -> SimcheckResult:
     """The check on a run directory: reads scene/mjcf/scene.xml and scene/scene.json (for the room), writes
     sim/simcheck.json and sim/before_after.png."""
-    run_dir = Path(run_dir)
+    run = RunPaths(run_dir)
     config = config or SimcheckConfig()
-    mjcf = run_dir / SCENE_MJCF
+    mjcf = run.scene_mjcf
     if not mjcf.exists():
         raise FileNotFoundError(
             f"{mjcf} does not exist; export the scene first (`rescene export {run_dir}` or `rescene run`)"
         )
     shell = None
-    if (run_dir / SCENE_JSON).exists():
-        doc = read_json(run_dir / SCENE_JSON)
+    if run.scene_json.exists():
+        doc = read_json(run.scene_json)
         shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
     result, motion = simcheck(mjcf, shell, config)
-    write_json_atomic(run_dir / SIMCHECK, result.to_json())
-    draw_before_after(run_dir / SIM_PICTURE, result, motion, shell)
+    write_json_atomic(run.simcheck, result.to_json())
+    draw_before_after(run.sim_picture, result, motion, shell)
     return result
