@@ -181,9 +181,12 @@ def rescene(
         )
         scene_level = [(Stage.SHELL, shell_f), (Stage.KEYFRAMES, keyframes_f), (Stage.SNAPSHOT, snapshot_f)]
         scene_level += [(Stage.FUSION, graph_f), (Stage.ATTACHMENT, layout_f), (Stage.EXPORT, scene_f)]
-        if config.export.simulation:  # the physics check of the MJCF the export wrote
-            scene_level.append((Stage.SIMCHECK, simcheck_t.submit(str(run.root), scene_f, config.sim)))
-        scene_level.append((Stage.EVALUATION, evaluate_t.submit(str(run.root), capture_in, scene_f, keyframes_f)))
+        sim_f = None  # the physics check of the MJCF the export wrote; the evaluation reads its result
+        if config.export.simulation:
+            sim_f = simcheck_t.submit(str(run.root), scene_f, config.sim)
+            scene_level.append((Stage.SIMCHECK, sim_f))
+        eval_f = evaluate_t.submit(str(run.root), capture_in, scene_f, keyframes_f, physics=sim_f)
+        scene_level.append((Stage.EVALUATION, eval_f))
         wait([f for _, f in scene_level])
         for stage, fut in scene_level:
             stage_rows.append(state_row(stage, None, fut))
