@@ -88,7 +88,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     looks = [
         ("scene (open in any glTF viewer)", run.scene_glb),
         ("scene description", run.scene_json),
+        ("MuJoCo model (python -m mujoco.viewer --mjcf=PATH)", run.scene_mjcf),
+        ("USD stage with physics (Isaac Sim, usdview, Blender)", run.scene_usda),
+        ("export report (every guessed value, collider fallbacks)", run.export_report),
+        ("physics check (stable fraction, t=0 penetration, drift)", run.simcheck),
         ("evaluation report", run.report_md),
+        ("evaluation report, interactive (open in a browser)", run.report_html),
         ("run log (open in Foxglove Studio; `rescene log` summarises it)", run.run_log),
         ("run manifest", run.manifest),
         ("embodied VQA questions (`rescene vqa RUN` regenerates them)", run.vqa_questions),
