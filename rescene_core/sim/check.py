@@ -167,9 +167,10 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
         "shake": config.shake,
         "seconds": round(time.perf_counter() - started, 3),
     }
-    deepest = None
+    deepest: tuple[str, str] | None = None
     if pair is not None:
-        deepest = tuple(model.body(int(model.geom_bodyid[g])).name or "world" for g in pair)
+        first, second = (str(model.body(int(model.geom_bodyid[g])).name or "world") for g in pair)
+        deepest = (first, second)
     result = SimcheckResult(tuple(objects), summary, deepest, config.model_dump(mode="json"))
     motion = {names[b]: (start_pos[b], data.xipos[b].copy()) for b in names}
     return result, motion
