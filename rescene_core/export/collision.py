@@ -5,15 +5,16 @@ Per mesh, exact pieces first: the mesh is split into connected components (by sh
 component whose volume is within ``CONVEX_TOLERANCE`` of its convex hull's is convex and its hull is a
 piece as it is; a component whose faces are all axis-aligned (a union of boxes: the synthetic
 furniture's shelves, legs and boards) is cut exactly into boxes on the grid of its vertex coordinates
-(``box_pieces``). Their method is 'components'. Only the other components go to CoACD: a sound closed
-mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
+(``box_pieces``). Their method is 'components'. The other components go to CoACD together, in one call;
+when no component is exact, or one of the others is not a sound closed surface, the whole mesh goes to
+CoACD. A sound closed mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
 faces, at most ``coacd_max_pieces`` pieces), run in a subprocess with a time limit
 (rescene_core/export/coacd_worker.py), ``decomposition_workers`` at a time. When CoACD fails, times out
 or the mesh is not a sound closed surface, the piece is the convex hull of the mesh, and when even that
 is flat or degenerate, the mesh's oriented bounding box thickened to ``min_thickness``; each fallback is
 written in the decomposition's ``notes`` (they go to ``scene/export_report.json``).
 
-CoACD results are cached on disk under the hash of the component's vertices and faces and the CoACD
+CoACD results are cached on disk under the hash of the decomposed mesh's vertices and faces and the CoACD
 settings, so the same mesh (the same asset, a re-run, the ground truth of a seed) is decomposed once; the
 exact pieces take milliseconds and are not cached (an entry always holds CoACD's answer for exactly the
 mesh it is keyed on, so entries written before the exact pieces existed keep their meaning).
@@ -383,18 +384,20 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
     if not rest:
         note = f"exact pieces of {len(parts)} component(s), no CoACD"
         return Decomposition(tuple(exact), "components", round(time.perf_counter() - start, 3), False, (note,))
-    if len(rest) == 1 and not exact:  # one solid: CoACD on the mesh as given (its cache key unchanged)
+    sound = all(not check_mesh(cv, cf) for cv, cf in rest)
+    if not exact or not sound:  # CoACD on the mesh as given (its cache key unchanged), as one solid
         return _decompose_coacd(v, f, [], settings)
-    done = [_decompose_coacd(cv, cf, check_mesh(cv, cf), settings) for cv, cf in rest]
+    rv = np.concatenate([cv for cv, _ in rest])
+    offsets = np.cumsum([0] + [len(cv) for cv, _ in rest[:-1]])
+    rf = np.concatenate([cf + off for (_, cf), off in zip(rest, offsets, strict=True)])
+    done = _decompose_coacd(rv, rf, [], settings)  # one call: the piece cap holds for the whole object
     notes = [f"exact pieces of {len(parts) - len(rest)} of {len(parts)} components, CoACD on the rest"]
-    notes += [n for d in done for n in d.notes]
-    fallbacks = [d.method for d in done if d.method != "coacd"]
     return Decomposition(
-        tuple(exact) + tuple(p for d in done for p in d.pieces),
-        fallbacks[0] if fallbacks else "coacd",
+        tuple(exact) + done.pieces,
+        done.method,
         round(time.perf_counter() - start, 3),
-        all(d.cached for d in done),
-        tuple(notes),
+        done.cached,
+        tuple(notes) + done.notes,
     )
 
 

@@ -86,3 +86,19 @@ def test_a_convex_component_keeps_its_hull_and_a_concave_one_goes_to_coacd(tmp_p
     assert dec.method == "coacd" and any("exact pieces of 1 of 2 components" in n for n in dec.notes)
     cup_pieces = [p for p in dec.pieces if p[0][:, 0].max() < 1.0]
     assert len(cup_pieces) == 1 and trimesh.Trimesh(*cup_pieces[0]).volume == pytest.approx(cup.volume, rel=1e-6)
+    assert len(list(tmp_path.rglob("*.npz"))) == 1  # the concave rest in one CoACD call
+
+
+def test_components_none_exact_go_to_coacd_once_as_one_mesh(tmp_path):
+    def slanted_ell(x):
+        ell = trimesh.boolean.union([_box([0, 0, 0], [1, 0.2, 0.1]), _box([0, 0, 0], [0.2, 1, 0.1])], engine="manifold")
+        ell.apply_transform(trimesh.transformations.rotation_matrix(np.radians(30), [0, 0, 1]))
+        ell.apply_translation([x, 0, 0])
+        return ell
+
+    both = trimesh.util.concatenate([slanted_ell(0.0), slanted_ell(2.0)])
+    settings = DecompositionSettings(max_pieces=4, cache_dir=str(tmp_path))
+    dec = decompose(both.vertices, both.faces, settings)
+    assert dec.method == "coacd" and not any("exact pieces" in n for n in dec.notes)
+    assert len(list(tmp_path.rglob("*.npz"))) == 1  # one CoACD call on the whole mesh
+    assert len(dec.pieces) <= 4
