@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+import numpy as np
+
 from rescene_core.assembly import AssemblyObject, attach
 from rescene_core.assets import generate_asset
 from rescene_core.capture import open_capture
@@ -102,6 +104,7 @@ def run_pipeline(
             vertices=asset.vertices,
             faces=asset.faces,
             world_from_asset=pose.world_from_asset,
+            points=np.asarray(cap.point_cloud(i).points, np.float64),
         )
     keyframes = timed(Stage.KEYFRAMES, select_keyframes, cap, config.keyframes)
     predictor = make_predictor(config.scenegraph)

@@ -171,7 +171,14 @@ def attach_layout(
         cap = open_capture(capture.path, validate=False)
         placed = _placed(run_dir, cap, assets, poses)
         objects = {
-            InstanceId(o.instance): stages.assembly_object(o.instance, o.label, o.vertices, o.faces, o.world_from_asset)
+            InstanceId(o.instance): stages.assembly_object(
+                o.instance,
+                o.label,
+                o.vertices,
+                o.faces,
+                o.world_from_asset,
+                points=np.asarray(cap.point_cloud(o.instance).points, np.float64),
+            )
             for o in placed
         }
         shell_rec = load_shell(run_dir, shell)

@@ -212,9 +212,15 @@ def write_graph(
 
 
 def assembly_object(
-    instance: int, label: str, vertices: np.ndarray, faces: np.ndarray, world_from_asset: np.ndarray
+    instance: int,
+    label: str,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    world_from_asset: np.ndarray,
+    points: np.ndarray | None = None,
 ) -> AssemblyObject:
-    """rescene_core.assembly.AssemblyObject for one registered instance."""
+    """rescene_core.assembly.AssemblyObject for one registered instance; points: the world points
+    float64 [n, 3] the capture saw of it (the solver's evidence for support planes and bounded moves)."""
     cls = _load(Stage.ATTACHMENT, "rescene_core.assembly", "AssemblyObject")
     return cls(
         instance=InstanceId(int(instance)),
@@ -222,6 +228,7 @@ def assembly_object(
         vertices=vertices,
         faces=faces,
         world_from_asset=world_from_asset,
+        points=points,
     )
 
 

@@ -191,10 +191,11 @@ class FakeAssemblyObject:
     vertices: np.ndarray
     faces: np.ndarray
     world_from_asset: np.ndarray
+    points: np.ndarray | None = None
 
 
-def assembly_object(instance, label, vertices, faces, world_from_asset):
-    return FakeAssemblyObject(instance, label, vertices, faces, world_from_asset)
+def assembly_object(instance, label, vertices, faces, world_from_asset, points=None):
+    return FakeAssemblyObject(instance, label, vertices, faces, world_from_asset, points)
 
 
 def attach(objects, graph, shell, config):
@@ -202,6 +203,8 @@ def attach(objects, graph, shell, config):
     poses = {}
     ops = []
     for i, obj in objects.items():
+        # the attachment task hands the solver each object's observed points as evidence
+        assert obj.points is not None and obj.points.shape[1:] == (3,), f"instance {i} reached attach without points"
         m = np.array(obj.world_from_asset, dtype=np.float64)
         lowest = (obj.vertices @ m[:3, :3].T + m[:3, 3])[:, 2].min()
         m[2, 3] -= lowest
