@@ -27,13 +27,14 @@ import numpy as np
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.scene import export_run
 from rescene_core.io import read_json
+from rescene_core.paths import RunPaths
 from rescene_core.sim import SimcheckConfig, simcheck_run
 
 LAYOUTS = ("gt", "pipeline")
 
 
-def _export_figures(scene_dir: Path, seconds: float) -> dict[str, Any]:
-    report = read_json(scene_dir / "export_report.json")
+def _export_figures(run: RunPaths, seconds: float) -> dict[str, Any]:
+    report = read_json(run.export_report)
     objs = report["objects"]
     fresh = [o["seconds_decomposition"] for o in objs if not o.get("decomposition_cached")]
     return {
@@ -58,8 +59,8 @@ def gt_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig) -> di
         ExportObject(int(i), o.label, o.vertices, o.faces, o.world_from_asset) for i, o in objects.items()
     ]
     start = time.perf_counter()
-    export_scene(run / "scene", export_objects, shell, graph, [], config)
-    return {"run_dir": str(run), **_export_figures(run / "scene", time.perf_counter() - start)}
+    export_scene(RunPaths(run).scene, export_objects, shell, graph, [], config)
+    return {"run_dir": str(run), **_export_figures(RunPaths(run), time.perf_counter() - start)}
 
 
 def pipeline_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig) -> dict[str, Any]:
@@ -69,7 +70,7 @@ def pipeline_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig)
     run = work_dir / "runs" / f"{preset}_seed{seed}"
     if not capture.exists():
         write_synth(capture, preset=preset, seed=seed)
-    if not (run / "scene" / "scene.json").exists():
+    if not RunPaths(run).scene_json.exists():
         cli = Path(sys.executable).with_name("rescene")
         done = subprocess.run([str(cli), "run", str(capture), "--out", str(run)], capture_output=True, text=True)
         if done.returncode != 0:
@@ -77,7 +78,7 @@ def pipeline_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig)
             raise RuntimeError(f"rescene run {capture} exited {done.returncode}:\n{tail}")
     start = time.perf_counter()
     export_run(run, config)
-    return {"run_dir": str(run), **_export_figures(run / "scene", time.perf_counter() - start)}
+    return {"run_dir": str(run), **_export_figures(RunPaths(run), time.perf_counter() - start)}
 
 
 def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
