@@ -127,8 +127,19 @@ def finish_import(
         frames.depth, masks, frames.rgb, frames.K, world_from_cam, structural, points_config
     )
     timings["points"] = time.perf_counter() - t
-    instances = [Instance(InstanceId(i), labels.get(i, ("object", False))[0], i in structural) for i in present]
-    objects_with_points = [i for i in present if i not in structural and i in clouds]
+    cfg_points = points_config or DepthPointsConfig()
+    masks, dropped_instances = _drop_objects_without_points(
+        masks, counts, present, structural, clouds, labels, cfg_points
+    )
+    kept_ids = [i for i in present if i not in {d["id"] for d in dropped_instances}]
+    if dropped_instances:
+        frames.notes.append(
+            f"{len(dropped_instances)} object instances dropped, no depth points: ids "
+            f"{[d['id'] for d in dropped_instances]} (fewer than {cfg_points.min_points} fused points each; "
+            "their mask pixels are cleared)"
+        )
+    instances = [Instance(InstanceId(i), labels.get(i, ("object", False))[0], i in structural) for i in kept_ids]
+    objects_with_points = [i for i in kept_ids if i not in structural and i in clouds]
     if not objects_with_points:
         raise ImportInputError(
             f"{frames.src}: empty scene: no object instance has depth points after {segmenter} "
@@ -159,6 +170,9 @@ def finish_import(
             "objects": sum(1 for i in instances if not i.structural),
             "structural": len(structural),
             "objects_with_points": len(objects_with_points),
+            "dropped": len(dropped_instances),
+            "dropped_by_reason": dict(sorted(Counter(d["reason"] for d in dropped_instances).items())),
+            "dropped_instances": dropped_instances,
             "labels": dict(sorted(Counter(i.label for i in instances).items())),
         },
         "points": {"total": int(len(points)), **point_stats},
@@ -193,6 +207,41 @@ def finish_import(
     report["throughput_fps"] = round(T / max(elapsed, 1e-9), 3)
     write_json_atomic(report_path(out), report)
     return report
+
+
+def _drop_objects_without_points(
+    masks: np.ndarray,
+    pixel_counts: np.ndarray,
+    present: list[int],
+    structural: set[int],
+    clouds: dict[int, Any],
+    labels: dict[int, tuple[str, bool]],
+    cfg: DepthPointsConfig,
+) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """Object ids of the masks that fused no cloud leave the capture: their pixels become 0 (no instance)
+    and each is listed with its label, mask pixels and reason. A segment or panoptic mask can be too small
+    or too thin to keep ``min_points`` points once it is eroded, cleared of depth edges and voxel-thinned;
+    written without points it would reach every later stage as an object with nothing to register.
+    Structural ids keep their records (the room shell is fitted from the whole depth)."""
+    empty = [i for i in present if i not in structural and i not in clouds]
+    if not empty:
+        return masks, []
+    masks = masks.copy()
+    masks[np.isin(masks, empty)] = 0
+    dropped = [
+        {
+            "id": i,
+            "label": labels.get(i, ("object", False))[0],
+            "mask_pixels": int(pixel_counts[i]),
+            "reason": "no depth points",
+            "detail": (
+                f"fewer than {cfg.min_points} fused points after {cfg.erode_px} px erosion, depth-edge removal, "
+                f"{cfg.object_voxel} m voxels and outlier removal"
+            ),
+        }
+        for i in empty
+    ]
+    return masks, dropped
 
 
 def write_validated(out: Path, arrays: CaptureArrays) -> Path:

@@ -3,6 +3,7 @@ alignment, and bad input (clear errors naming the file, dropped frames counted, 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 
@@ -18,6 +19,7 @@ from rescene_core.capture.importers import ImportInputError, ImportOptions, impo
 from rescene_core.capture.importers.common import read_depth
 from rescene_core.capture.importers.layouts import Y_UP_FROM_Z_UP, write_panoptic, write_rgbd
 from rescene_core.capture.importers.rgbd import read_rgbd
+from rescene_core.records import Instance, InstanceId
 
 
 def test_panoptic_round_trip_keeps_poses_intrinsics_masks_depth(tiny_scene, tmp_path):
@@ -35,6 +37,25 @@ def test_panoptic_round_trip_keeps_poses_intrinsics_masks_depth(tiny_scene, tmp_
     assert report["frames"]["kept"] == len(a.rgb) and report["frames"]["dropped"] == 0
     assert cap.source == "panoptic-masks" and report["segmenter"] == "panoptic-masks"
     assert json.loads(report_path(tmp_path / "out.zarr").read_text())["frames"]["kept"] == len(a.rgb)
+
+
+def test_an_object_mask_too_small_for_depth_points_is_dropped_and_reported(tiny_scene, tmp_path):
+    a = tiny_scene.arrays
+    masks = a.instance_masks.copy()
+    masks[0, 10:14, 10:14] = 99  # 16 pixels: nothing survives the 2 px erosion
+    arrays = dataclasses.replace(
+        a, instance_masks=masks, instances=(*a.instances, Instance(InstanceId(99), "speck", False))
+    )
+    src = write_panoptic(arrays, tmp_path / "src")
+    report = import_capture("panoptic", src, tmp_path / "out.zarr", ImportOptions(align="none"))
+    cap = open_capture(tmp_path / "out.zarr")
+    assert 99 not in {int(i.id) for i in cap.instances} and not (np.asarray(cap.instance_masks[...]) == 99).any()
+    assert all(len(cap.point_cloud(i.id)) for i in cap.object_instances)
+    inst = report["instances"]
+    assert inst["dropped"] == 1 and inst["dropped_by_reason"] == {"no depth points": 1}
+    (dropped,) = inst["dropped_instances"]
+    assert dropped["id"] == 99 and dropped["label"] == "speck" and dropped["mask_pixels"] == 16
+    assert any("dropped, no depth points" in n for n in report["notes"])
 
 
 def test_y_up_recorder_is_aligned_to_z_up_with_the_floor_at_zero(tiny_scene, tmp_path):
