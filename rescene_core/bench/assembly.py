@@ -441,7 +441,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
     from rescene_core.capture import open_capture
     from rescene_core.capture.ground_truth import read_ground_truth
     from rescene_core.capture.synth import write_synth
-    from rescene_core.evaluation.run import load_scene
+    from rescene_core.evaluation.scene import load_scene
 
     capture = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
     run_dir = work_dir / "runs" / f"{preset}_seed{seed}"

@@ -31,6 +31,7 @@ import numpy as np
 
 from rescene_core.evaluation.geometry import GeometryConfig, compare, sample_meshes
 from rescene_core.evaluation.rendering import RenderingConfig, rendering_metrics
+from rescene_core.paths import RunPaths
 
 RENDER_STRIDE = 4
 """Rendering metrics of the bench use every n-th non-key frame."""
@@ -124,16 +125,17 @@ def _run(capture: Path, run_dir: Path, method: str | None) -> float | None:
     """`rescene run` (reused when the run has a scene); returns its wall minutes from the manifest."""
     from rescene_core.io import read_json
 
-    if not (run_dir / "scene" / "scene.json").exists():
+    paths = RunPaths(run_dir)
+    if not paths.scene_json.exists():
         cli = Path(sys.executable).with_name("rescene")
         cmd = [str(cli), "run", str(capture), "--out", str(run_dir)]
         if method:
             cmd += ["--set", f"hierview.method={method}"]
         done = subprocess.run(cmd, capture_output=True, text=True)
-        if done.returncode != 0 and not (run_dir / "scene" / "scene.json").exists():
+        if done.returncode != 0 and not paths.scene_json.exists():
             tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
             raise RuntimeError(f"{' '.join(cmd)} exited {done.returncode}:\n{tail}")
-    manifest = read_json(run_dir / "manifest.json") if (run_dir / "manifest.json").exists() else {}
+    manifest = read_json(paths.manifest) if paths.manifest.exists() else {}
     try:
         a, b = (datetime.fromisoformat(manifest[k]) for k in ("started", "finished"))
         return (b - a).total_seconds() / 60.0
@@ -189,7 +191,7 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     from rescene_core.capture.ground_truth import read_ground_truth
     from rescene_core.capture.synth import write_synth
     from rescene_core.config import AttachmentConfig, SceneGraphConfig
-    from rescene_core.evaluation.run import load_scene, placed_meshes
+    from rescene_core.evaluation.scene import load_scene, placed_meshes
     from rescene_core.export import ExportConfig, shell_meshes
     from rescene_core.io import read_json
     from rescene_core.records import Edge, InstanceId, RoomShell, SceneGraph
@@ -207,7 +209,7 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     gt_samples = sample_meshes({o.object_id: gt.world_mesh(o.object_id) for o in gt.objects}, cfg)
     rows: dict[str, dict[str, Any]] = {}
     ours_dir = work_dir / "runs" / f"{preset}_seed{seed}_hierview"
-    key_frames = [int(t) for t in read_json(ours_dir / "keyframes.json")["frames"]]
+    key_frames = [int(t) for t in read_json(RunPaths(ours_dir).keyframes)["frames"]]
     for name in VIEW_RUNS:
         doc = load_scene(work_dir / "runs" / f"{preset}_seed{seed}_{name}")
         shell = RoomShell.from_json(doc["shell"])
@@ -242,7 +244,7 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     }
     preds = [
         FramePrediction.from_json(read_json(p))
-        for p in sorted((ours_dir / "scenegraph" / "frames").glob("*.json"), key=lambda p: int(p.stem))
+        for p in sorted(RunPaths(ours_dir).frame_json(0).parent.glob("*.json"), key=lambda p: int(p.stem))
     ]
     children = [int(i) for i in objects]
     missing = {int(m["instance"]) for m in doc.get("missing", [])}

@@ -22,8 +22,15 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from rescene_core.capture import open_capture
+from rescene_core.evaluation.judge import scene_views
+from rescene_core.evaluation.rendering import _mean_color, scaled, scene_render_meshes
+from rescene_core.evaluation.scene import load_scene, placed_meshes
+from rescene_core.export import ExportConfig, shell_meshes
 from rescene_core.io import read_json, write_bytes_atomic
 from rescene_core.paths import RunPaths
+from rescene_core.records import RoomShell
+from rescene_core.render import Renderer, Shading
 
 MODEL_VIEWER_ENV = "RESCENE_MODEL_VIEWER_JS"
 """Path of model-viewer.min.js, when not under the repository's node_modules."""
@@ -240,10 +247,6 @@ def _figures(run_dir: Path, metrics: dict[str, Any], doc: dict[str, Any] | None,
         out[f"sheet_{k}"] = url
     if doc is None or capture is None or not doc["objects"]:
         return out
-    from rescene_core.evaluation.judge import scene_views
-    from rescene_core.evaluation.run import placed_meshes
-    from rescene_core.export import ExportConfig, shell_meshes
-    from rescene_core.records import RoomShell
 
     shell = shell_meshes(RoomShell.from_json(doc["shell"]), ExportConfig()) if doc.get("shell") else {}
     after = placed_meshes(doc)
@@ -260,9 +263,6 @@ def _figures(run_dir: Path, metrics: dict[str, Any], doc: dict[str, Any] | None,
             out[name] = _jpeg(views[0])
     r = metrics.get("rendering") or {}
     if r.get("frames"):
-        from rescene_core.evaluation.rendering import scaled, scene_render_meshes
-        from rescene_core.render import Renderer, Shading
-
         renderer = Renderer(scene_render_meshes(after, shell, capture), Shading(lights=(), ambient=1.0, gamma=1.0))
         pick = r["frames"][:: max(1, len(r["frames"]) // 3)][:3]
         for k, t in enumerate(pick):
@@ -285,8 +285,6 @@ th{background:#f3f3f3}model-viewer{width:100%;height:560px;background:#eef1f4}
 
 def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: Any | None = None) -> str:
     """The page (a string) for a run and its metrics."""
-    from rescene_core.evaluation.rendering import _mean_color
-    from rescene_core.evaluation.run import load_scene, placed_meshes
 
     run_dir = Path(run_dir)
     try:
@@ -294,8 +292,6 @@ def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: An
     except FileNotFoundError:
         doc = None
     if capture is None and metrics.get("capture") and Path(metrics["capture"]).exists():
-        from rescene_core.capture import open_capture
-
         capture = open_capture(metrics["capture"], validate=False)
     figs = _figures(run_dir, metrics, doc, capture)
     parts = [
@@ -305,9 +301,6 @@ def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: An
     js = model_viewer_js()
     viewer = ""
     if doc is not None and doc["objects"] and js is not None:
-        from rescene_core.export import ExportConfig, shell_meshes
-        from rescene_core.records import RoomShell
-
         placed = placed_meshes(doc)
         shell = shell_meshes(RoomShell.from_json(doc["shell"]), ExportConfig()) if doc.get("shell") else {}
         colors = {i: (_mean_color(capture, [i]) if capture is not None else None) or (0.6, 0.6, 0.6) for i in placed}

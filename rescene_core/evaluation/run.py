@@ -12,34 +12,26 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
-import trimesh
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
-from rescene_core.evaluation.geometry import GeometryConfig
-from rescene_core.evaluation.judge import JudgeConfig
-from rescene_core.evaluation.rendering import RenderingConfig
+from rescene_core.assembly import AssemblyObject
+from rescene_core.capture import open_capture
+from rescene_core.capture.ground_truth import read_ground_truth
+from rescene_core.evaluation.geometry import GeometryConfig, geometry_metrics
+from rescene_core.evaluation.ground_truth import gt_metrics
+from rescene_core.evaluation.judge import JudgeConfig, judge_run
+from rescene_core.evaluation.rendering import RenderingConfig, rendering_metrics
+from rescene_core.evaluation.report_html import write_report_html
+from rescene_core.evaluation.scene import load_scene, placed_meshes
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.export import ExportConfig, shell_meshes
 from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, RoomShell, SceneGraph
-
-
-def load_scene(run_dir: str | Path) -> dict[str, Any]:
-    """scene.json with each object's mesh loaded: objects[i]["vertices"], ["faces"] (asset frame)."""
-    run = RunPaths(run_dir)
-    scene_dir, path = run.scene, run.scene_json
-    if not path.exists():
-        raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
-    doc = read_json(path)
-    for obj in doc["objects"]:
-        # force="mesh" always gives a Trimesh; the stubs type load() as any Geometry
-        mesh = cast(trimesh.Trimesh, trimesh.load(scene_dir / obj["mesh"], force="mesh", process=False))
-        obj["vertices"] = np.asarray(mesh.vertices, dtype=np.float64)
-        obj["faces"] = np.asarray(mesh.faces, dtype=np.int64)
-    return doc
 
 
 class EvaluationConfig(BaseModel):
@@ -68,16 +60,6 @@ def _capture_path(run_dir: Path, doc: dict[str, Any] | None) -> str | None:
     return None
 
 
-def placed_meshes(doc: dict[str, Any]) -> dict[int, tuple[str, trimesh.Trimesh]]:
-    """Instance id -> (label, mesh in the world frame at its final pose) of a loaded scene.json."""
-    out = {}
-    for o in doc["objects"]:
-        m = np.asarray(o["world_from_asset"], np.float64)
-        verts = np.asarray(o["vertices"]) @ m[:3, :3].T + m[:3, 3]
-        out[int(o["instance"])] = (o["label"], trimesh.Trimesh(verts, np.asarray(o["faces"]), process=False))
-    return out
-
-
 def evaluate_run(
     run_dir: str | Path,
     capture: str | Path | None = None,
@@ -91,9 +73,6 @@ def evaluate_run(
     or down). Writes RUN/eval/metrics.json, report.md and (``config.html``) report.html.
     Raises FileNotFoundError when neither the scene nor the capture can be found.
     """
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.ground_truth import read_ground_truth
-
     config = config or EvaluationConfig()
     run_dir = Path(run_dir)
     started, started_cpu = time.perf_counter(), time.process_time()
@@ -151,9 +130,6 @@ def evaluate_run(
         elif not doc["objects"]:
             not_computed["structural"] = "the run placed no object"
         else:
-            from rescene_core.assembly import AssemblyObject
-            from rescene_core.evaluation.structural import structural_metrics
-
             objs = {
                 int(o["instance"]): AssemblyObject(
                     InstanceId(int(o["instance"])),
@@ -174,8 +150,6 @@ def evaluate_run(
         if gt is None:
             not_computed["ground_truth"] = "the capture has no ground truth (gt/ group)"
         elif doc is not None:
-            from rescene_core.evaluation.ground_truth import gt_metrics
-
             t0, c0 = time.perf_counter(), time.process_time()
             objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
             metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
@@ -185,13 +159,8 @@ def evaluate_run(
     placed = placed_meshes(doc) if doc is not None else {}
     shell_geometry = {}
     if shell is not None:
-        from rescene_core.export import ExportConfig, shell_meshes
-
         shell_geometry = shell_meshes(shell, ExportConfig())
     if cap is not None and doc is not None:
-        from rescene_core.evaluation.geometry import geometry_metrics
-        from rescene_core.evaluation.rendering import rendering_metrics
-
         t0, c0 = time.perf_counter(), time.process_time()
         metrics["geometry"] = geometry_metrics(placed, shell_geometry, cap, gt, config.geometry)
         timings["geometry"] = time.perf_counter() - t0
@@ -217,8 +186,6 @@ def evaluate_run(
         not_computed["physics"] = "no sim/simcheck.json (run `rescene simcheck RUN`)"
 
     if doc is not None and cap is not None:
-        from rescene_core.evaluation.judge import judge_run
-
         t0, c0 = time.perf_counter(), time.process_time()
         metrics["judge"] = judge_run(run_dir, placed, shell_geometry, cap, config.judge)
         timings["judge"] = time.perf_counter() - t0
@@ -237,8 +204,6 @@ def evaluate_run(
     write_json_atomic(RunPaths(run_dir).metrics, metrics)
     write_bytes_atomic(RunPaths(run_dir).report_md, report(metrics).encode())
     if config.html:
-        from rescene_core.evaluation.report_html import write_report_html
-
         write_report_html(run_dir, metrics)
     return metrics
 
@@ -343,4 +308,4 @@ def format_metrics(metrics: dict[str, Any]) -> str:
     return "\n".join(f"{k:34s} {_fmt(v)}" for k, v in metrics["summary"].items())
 
 
-__all__ = ["EvaluationConfig", "evaluate_run", "format_metrics", "load_scene", "placed_meshes", "report"]
+__all__ = ["EvaluationConfig", "evaluate_run", "format_metrics", "report"]
