@@ -135,6 +135,16 @@ def test_api_key_never_leaks_even_when_the_server_echoes_it(room_capture, shell,
     assert_no_key(json.dumps(cfg.model_dump()), repr(predictor))
 
 
+def test_one_client_per_config_and_key():
+    base = dict(backend="openai", vlm=VlmClientConfig(base_url="http://127.0.0.1:9/v1", api_key="key-a"))
+    same = make_predictor(SceneGraphConfig(**base))
+    assert make_predictor(SceneGraphConfig(**base)) is same  # built once per process
+    other = make_predictor(
+        SceneGraphConfig(**base | {"vlm": VlmClientConfig(base_url="http://127.0.0.1:9/v1", api_key="key-b")})
+    )
+    assert other is not same  # the key is excluded from the config's JSON but still tells clients apart
+
+
 def test_api_key_from_environment(room_capture, shell, monkeypatch):
     monkeypatch.setenv("RESCENE_VLM_API_KEY", KEY)
     with LoopbackServer(scripted()) as server:
