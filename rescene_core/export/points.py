@@ -26,8 +26,8 @@ from rescene_core.export.objects import ExportObject
 from rescene_core.geometry import sim3
 from rescene_core.io import atomic_directory
 
-if TYPE_CHECKING:  # the config class lives with the scene exporter, which imports this module
-    from rescene_core.export.scene import ExportConfig
+if TYPE_CHECKING:
+    from rescene_core.config import ExportConfig
 
 POINTS_FORMAT = "rescene-scene-points"
 POINTS_VERSION = 1
