@@ -91,7 +91,7 @@ def _resize(image: NDArray, size: tuple[int, int], nearest: bool) -> NDArray:
 
     if (image.shape[1], image.shape[0]) == size:
         return np.asarray(image)
-    mode = Image.NEAREST if nearest else Image.BILINEAR
+    mode = Image.Resampling.NEAREST if nearest else Image.Resampling.BILINEAR
     return np.asarray(Image.fromarray(np.ascontiguousarray(image)).resize(size, mode))
 
 

@@ -58,7 +58,7 @@ def _jpeg(rgb: np.ndarray, width: int | None = None) -> str:
 
     img = Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).convert("RGB")
     if width and img.width > width:
-        img = img.resize((width, max(1, round(img.height * width / img.width))), Image.BILINEAR)
+        img = img.resize((width, max(1, round(img.height * width / img.width))), Image.Resampling.BILINEAR)
     buf = io.BytesIO()
     img.save(buf, format="JPEG", quality=85)
     return _data_url(buf.getvalue(), "image/jpeg")
@@ -75,6 +75,15 @@ def _png_file(path: Path, width: int | None = None) -> str | None:
         return None
 
 
+def _paint(mesh: trimesh.Trimesh, rgba: np.ndarray) -> None:
+    """One RGBA colour (uint8 [4]) on every face; a textured mesh gets plain face colours for the viewer."""
+    colors = np.tile(rgba, (len(mesh.faces), 1))
+    if isinstance(mesh.visual, trimesh.visual.ColorVisuals):
+        mesh.visual.face_colors = colors
+    else:
+        mesh.visual = trimesh.visual.ColorVisuals(mesh, face_colors=colors)
+
+
 def viewer_glb(
     placed: Mapping[int, tuple[str, trimesh.Trimesh]],
     shell: Mapping[str, trimesh.Trimesh],
@@ -87,7 +96,7 @@ def viewer_glb(
     for i, (label, mesh) in sorted(placed.items()):
         m = mesh.copy()
         rgba = np.array([*colors.get(i, (0.6, 0.6, 0.6)), 1.0]) * 255
-        m.visual.face_colors = np.tile(rgba.astype(np.uint8), (len(m.faces), 1))
+        _paint(m, rgba.astype(np.uint8))
         m.apply_transform(y_up)
         scene.add_geometry(m, node_name=f"obj_{i}_{label.replace(' ', '_')}")
     for name, mesh in sorted(shell.items()):
@@ -100,7 +109,7 @@ def viewer_glb(
             color = (150, 120, 95, 255)
         if len(m.faces) == 0:
             continue
-        m.visual.face_colors = np.tile(np.array(color, np.uint8), (len(m.faces), 1))
+        _paint(m, np.array(color, np.uint8))
         m.apply_transform(y_up)
         scene.add_geometry(m, node_name=name)
     return scene.export(file_type="glb")
