@@ -27,7 +27,7 @@ from prefect.context import TaskRunContext
 from pydantic import BaseModel
 
 from rescene_core import paths
-from rescene_core.capture.identity import capture_identity
+from rescene_core.capture.identity import CaptureChangedError, capture_identity
 from rescene_core.io import hash_file, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import Missing, Ref, RefStatus, Stage
@@ -129,7 +129,13 @@ def capture_ref(capture: str | Path, verify: str = "stamp") -> Ref:
     if verify not in VERIFY_CAPTURE:
         raise ValueError(f"verify_capture={verify!r}: use one of {', '.join(VERIFY_CAPTURE)}")
     path = Path(capture).resolve()
-    ident = capture_identity(path, full=verify == "full")
+    try:
+        ident = capture_identity(path, full=verify == "full")
+    except CaptureChangedError:
+        from rescene_core.capture import open_capture
+
+        open_capture(path)  # changed and also invalid: the list of its problems is the clearer error
+        raise
     detail = {"verification": ident.verification, "rehashed_files": ident.rehashed_files}
     return Ref(kind="capture", path=str(path), sha256=ident.content_hash, detail=detail)
 
