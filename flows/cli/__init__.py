@@ -79,7 +79,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    """`rescene run CAPTURE --out RUN [--config FILE] [--set k=v] [--runner thread|dask --address A]`."""
+    """`rescene run CAPTURE --out RUN [--config FILE] [--set k=v] [--runner thread|dask|ray --address A]`."""
     import os
     import time
 
@@ -93,7 +93,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from flows.scene import run_flow
 
     start = time.perf_counter()
-    state = run_flow(args.capture, args.out, config, args.runner, args.address)
+    state = run_flow(args.capture, args.out, config, args.runner, args.address, verify_capture=args.verify_capture)
     seconds = time.perf_counter() - start
     summary = state.result(raise_on_failure=False) if state.is_completed() or state.is_failed() else None
     if isinstance(summary, CaptureError):  # bad input: the problems, and exit code 2 as for every command
@@ -195,8 +195,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="run directory")
     p.add_argument("--config", type=Path, help="YAML config (sections of RunConfig)")
     p.add_argument("--set", action="append", default=[], metavar="SECTION[.SUB].FIELD=VALUE")
-    p.add_argument("--runner", choices=["thread", "dask"], default="thread")
-    p.add_argument("--address", help="Dask scheduler address for --runner dask")
+    p.add_argument("--runner", choices=["thread", "dask", "ray"], default="thread", help="task runner")
+    p.add_argument("--address", help="Dask scheduler or Ray cluster address for --runner dask|ray")
+    p.add_argument(
+        "--verify-capture",
+        choices=["stamp", "full"],
+        default="stamp",
+        help="check the capture against its identity stamp by sizes and times (stamp) or by rehashing every file",
+    )
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("eval", help="evaluate a run directory against the capture's ground truth")
