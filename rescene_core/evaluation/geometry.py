@@ -244,9 +244,9 @@ def fuse_depth(frames: Iterable[tuple], config: GeometryConfig) -> PointSet:
     every valid pixel is back-projected (``backproject``, up to ``depth_max``) and the points of each
     ``fuse_voxel`` voxel are averaged, normals too. Only surfaces some camera saw get points.
 
-    (A TSDF, Open3D ``ScalableTSDFVolume`` or ``VoxelBlockGrid``, would be the usual choice; with open3d
-    0.20.0 on the development machine both integrate nothing and extract empty volumes, and the dense
-    ``UniformTSDFVolume`` takes 16 s to allocate one room at 2 cm, so the fusion averages per voxel.)"""
+    (A TSDF would be the usual choice; with open3d 0.20.0 the legacy ``ScalableTSDFVolume`` integrates
+    nothing and the dense ``UniformTSDFVolume`` takes 16 s to allocate one room at 2 cm. The tensor
+    ``VoxelBlockGrid`` works, see ``rescene_core.segment.geometric.tsdf_mesh``, and is not used here yet.)"""
     sets = []
     for depth, camera, *labels in frames:
         depth = np.where(np.asarray(depth) <= config.depth_max, depth, 0.0)

@@ -1,6 +1,6 @@
 """The label-free front end: instance masks for RGB-D scans that have none.
 
-1. TSDF fusion of every frame (Open3D ``ScalableTSDFVolume``) and its surface mesh.
+1. TSDF fusion of every frame (Open3D's tensor ``VoxelBlockGrid``) and its surface mesh.
 2. Room structure removed: the floor (z near 0 in the aligned frame), a ceiling (a large horizontal
    plane above the cameras) and walls (large vertical planes with almost nothing behind them). A vertex
    joins a plane only if it lies on it and its normal agrees, so the side of a cabinet against a wall
