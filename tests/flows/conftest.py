@@ -17,22 +17,3 @@ def prefect_server():
 
     with prefect_test_harness(server_startup_timeout=60):
         yield
-
-
-@pytest.fixture
-def fake_stages(monkeypatch):
-    """Replace every stage library call in ``tasks.stages`` by the counting fakes of tests/flows/fakes.py."""
-    from tasks import stages
-    from tests.flows import fakes
-
-    for name, fn in fakes.STAGE_FAKES.items():
-        monkeypatch.setattr(stages, name, fn)
-    fakes.CALLS.clear()
-    return fakes.CALLS
-
-
-@pytest.fixture(scope="session")
-def box_capture_path(tmp_path_factory):
-    from tests.flows.fakes import box_capture
-
-    return box_capture(tmp_path_factory.mktemp("capture") / "boxes.zarr")

@@ -1,27 +1,10 @@
 """Task tests call each task's function through ``task.fn()``: no Prefect server, stage libraries
-replaced by the counting doubles of tests/flows/fakes.py."""
+replaced by the counting doubles of tests/flows/fakes.py (the ``fake_stages`` and ``box_capture_path``
+fixtures live in tests/conftest.py, shared with the flow tests)."""
 
 from __future__ import annotations
 
 import pytest
-
-
-@pytest.fixture
-def fake_stages(monkeypatch):
-    from tasks import stages
-    from tests.flows import fakes
-
-    for name, fn in fakes.STAGE_FAKES.items():
-        monkeypatch.setattr(stages, name, fn)
-    fakes.CALLS.clear()
-    return fakes.CALLS
-
-
-@pytest.fixture(scope="session")
-def box_capture_path(tmp_path_factory):
-    from tests.flows.fakes import box_capture
-
-    return box_capture(tmp_path_factory.mktemp("capture") / "boxes.zarr")
 
 
 @pytest.fixture
