@@ -4,44 +4,13 @@
 from __future__ import annotations
 
 import json
-import os
-import socket
 import subprocess
 import sys
-import time
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-PREFECT = str(Path(sys.executable).parent / "prefect")
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _cli(args: list[str], env: dict[str, str], timeout: float = 300) -> subprocess.CompletedProcess:
-    out = subprocess.run([PREFECT, *args], env=env, cwd=REPO, capture_output=True, text=True, timeout=timeout)
-    assert out.returncode == 0, f"prefect {' '.join(args)} failed:\n{out.stdout}\n{out.stderr}"
-    return out
-
-
-def _wait_healthy(url: str, server: subprocess.Popen, timeout: float = 180) -> None:
-    import httpx
-
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        assert server.poll() is None, "prefect server exited"
-        try:
-            if httpx.get(f"{url}/health", timeout=2).status_code == 200:
-                return
-        except httpx.HTTPError:
-            pass
-        time.sleep(1)
-    raise AssertionError(f"prefect server at {url} did not become healthy in {timeout} s")
+from tests.flows.prefect_server import PREFECT, REPO, local_server, stop
+from tests.flows.prefect_server import prefect_cli as _cli
 
 
 @pytest.mark.slow
@@ -49,70 +18,52 @@ def _wait_healthy(url: str, server: subprocess.Popen, timeout: float = 180) -> N
 def test_deployment_run_on_local_server(tmp_path):
     from rescene_core.capture.synth import write_synth
 
-    port = _free_port()
-    api = f"http://127.0.0.1:{port}/api"
-    env = {
-        **os.environ,
-        "PREFECT_HOME": str(tmp_path / "prefect-home"),
-        "PREFECT_API_DATABASE_CONNECTION_URL": f"sqlite+aiosqlite:///{tmp_path / 'prefect.db'}",
-        "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
-        "PREFECT_UI_ENABLED": "false",
-        "OMP_NUM_THREADS": "1",
-    }
-    env.pop("PREFECT_API_URL", None)
-    server = subprocess.Popen(
-        [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
-        env=env, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    worker = None
-    try:
-        _wait_healthy(api, server)
-        env["PREFECT_API_URL"] = api
-        _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env)
-        deploy = subprocess.run(
-            [sys.executable, "deployments/deploy.py", "--prefect-file", "deployments/prefect.yaml"],
-            env=env, cwd=REPO, capture_output=True, text=True, timeout=300,
-        )  # fmt: skip
-        assert deploy.returncode == 0, deploy.stderr
-        worker = subprocess.Popen(
-            [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
-            env=env, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-        capture = write_synth(tmp_path / "tiny.zarr", "tiny", seed=0)
-        run_dir = tmp_path / "runs" / "tiny"
-        params = json.dumps({"capture": str(capture), "run_dir": str(run_dir)})
-        _cli(["deployment", "run", "rescene/scene", "--params", params, "--watch", "--watch-timeout", "600"], env, 700)
-        manifest = json.loads((run_dir / "manifest.json").read_text())
-        assert manifest["state"] == "Completed", manifest["message"]
-        assert manifest["flow_run_id"] != "local"
-        for rel in ("scene/scene.glb", "scene/scene.json", "logs/run.mcap", "eval/metrics.json"):
-            assert (run_dir / rel).exists(), rel
-        assert len(manifest["instances"]) >= 1
+    with local_server(tmp_path) as env:
+        worker = None
+        try:
+            _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env)
+            deploy = subprocess.run(
+                [sys.executable, "deployments/deploy.py", "--prefect-file", "deployments/prefect.yaml"],
+                env=env, cwd=REPO, capture_output=True, text=True, timeout=300,
+            )  # fmt: skip
+            assert deploy.returncode == 0, deploy.stderr
+            worker = subprocess.Popen(
+                [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
+                env=env, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            )  # fmt: skip
+            capture = write_synth(tmp_path / "tiny.zarr", "tiny", seed=0)
+            run_dir = tmp_path / "runs" / "tiny"
+            params = json.dumps({"capture": str(capture), "run_dir": str(run_dir)})
+            _cli(
+                ["deployment", "run", "rescene/scene", "--params", params, "--watch", "--watch-timeout", "600"],
+                env,
+                700,
+            )
+            manifest = json.loads((run_dir / "manifest.json").read_text())
+            assert manifest["state"] == "Completed", manifest["message"]
+            assert manifest["flow_run_id"] != "local"
+            for rel in ("scene/scene.glb", "scene/scene.json", "logs/run.mcap", "eval/metrics.json"):
+                assert (run_dir / rel).exists(), rel
+            assert len(manifest["instances"]) >= 1
 
-        # the split flow skips the scene already done, runs the other as a rescene/scene deployment run
-        # (picked up by the worker), and writes its Parquet summary
-        other = write_synth(tmp_path / "tiny1.zarr", "tiny", seed=1)
-        split = tmp_path / "split.txt"
-        split.write_text(f"{capture}\n{other.name}\n")
-        params = json.dumps({"split_file": str(split), "out_root": str(tmp_path / "runs")})
-        _cli(
-            ["deployment", "run", "rescene-split/split", "--params", params, "--watch", "--watch-timeout", "600"],
-            env,
-            700,
-        )
-        import pyarrow.parquet as pq
+            # the split flow skips the scene already done, runs the other as a rescene/scene deployment run
+            # (picked up by the worker), and writes its Parquet summary
+            other = write_synth(tmp_path / "tiny1.zarr", "tiny", seed=1)
+            split = tmp_path / "split.txt"
+            split.write_text(f"{capture}\n{other.name}\n")
+            params = json.dumps({"split_file": str(split), "out_root": str(tmp_path / "runs")})
+            _cli(
+                ["deployment", "run", "rescene-split/split", "--params", params, "--watch", "--watch-timeout", "600"],
+                env,
+                700,
+            )
+            import pyarrow.parquet as pq
 
-        table = pq.read_table(tmp_path / "runs" / "split_summary.parquet").to_pylist()
-        assert [(r["scene"], r["skipped"], r["state"]) for r in table] == [
-            ("tiny", True, "Completed"),
-            ("tiny1", False, "Completed"),
-        ]
-        assert json.loads((tmp_path / "runs" / "tiny1" / "manifest.json").read_text())["state"] == "Completed"
-    finally:
-        for proc in (worker, server):
-            if proc is not None:
-                proc.terminate()
-                try:
-                    proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
+            table = pq.read_table(tmp_path / "runs" / "split_summary.parquet").to_pylist()
+            assert [(r["scene"], r["skipped"], r["state"]) for r in table] == [
+                ("tiny", True, "Completed"),
+                ("tiny1", False, "Completed"),
+            ]
+            assert json.loads((tmp_path / "runs" / "tiny1" / "manifest.json").read_text())["state"] == "Completed"
+        finally:
+            stop(worker)

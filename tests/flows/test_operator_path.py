@@ -10,17 +10,14 @@ from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
-import sys
 import time
-from pathlib import Path
 
 import httpx
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-PREFECT = str(Path(sys.executable).parent / "prefect")
+from tests.flows.prefect_server import PREFECT, REPO, local_server, stop
+from tests.flows.prefect_server import prefect_cli as _cli
 
 SITECUSTOMIZE = """
 import os
@@ -33,18 +30,6 @@ if os.environ.get("RESCENE_TEST_FAKE_STAGES"):
 
 UI_RETRY = {"state": {"type": "SCHEDULED", "name": "AwaitingRetry", "message": "Retry from the UI"}, "force": True}
 """The body of POST /flow_runs/{id}/set_state that the Prefect UI's Retry button sends."""
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _cli(args: list[str], env: dict[str, str], timeout: float = 240) -> subprocess.CompletedProcess:
-    out = subprocess.run([PREFECT, *args], env=env, cwd=REPO, capture_output=True, text=True, timeout=timeout)
-    assert out.returncode == 0, f"prefect {' '.join(args)} failed:\n{out.stdout[-3000:]}\n{out.stderr[-3000:]}"
-    return out
 
 
 def _wait_final(api: str, flow_run_id: str, after: str | None = None, timeout: float = 300) -> dict:
@@ -63,55 +48,32 @@ def _wait_final(api: str, flow_run_id: str, after: str | None = None, timeout: f
 def operator_stack(tmp_path_factory):
     """A real server, the pool, the deployments registered by `prefect deploy`, and a process worker."""
     tmp = tmp_path_factory.mktemp("operator")
-    port = _free_port()
-    api = f"http://127.0.0.1:{port}/api"
-    env = {
-        **os.environ,
-        "PREFECT_HOME": str(tmp / "prefect-home"),
-        "PREFECT_API_DATABASE_CONNECTION_URL": f"sqlite+aiosqlite:///{tmp / 'prefect.db'}",
-        "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
-        "PREFECT_UI_ENABLED": "false",
-        "RESCENE_RETRY_DELAY_S": "0.2",
-        "OMP_NUM_THREADS": "1",
-    }
-    env.pop("PREFECT_API_URL", None)
-    server = subprocess.Popen(
-        [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
-        env=env, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    worker = None
-    try:
-        deadline = time.monotonic() + 180
-        while True:
-            assert server.poll() is None, "prefect server exited"
-            try:
-                if httpx.get(f"{api}/health", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < deadline, "prefect server did not become healthy in 180 s"
-            time.sleep(1)
-        env["PREFECT_API_URL"] = api
-        _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env)
-        deploy = _cli(["--no-prompt", "deploy", "--all", "--prefect-file", "deployments/prefect.yaml"], env)
-        site = tmp / "site"
-        site.mkdir()
-        (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
-        worker_env = {**env, "RESCENE_TEST_FAKE_STAGES": "1", "PYTHONPATH": f"{site}{os.pathsep}{REPO}"}
-        worker_log = open(tmp / "worker.log", "w")  # noqa: SIM115 - closed with the worker
-        worker = subprocess.Popen(
-            [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
-            env=worker_env, cwd=REPO, stdout=worker_log, stderr=subprocess.STDOUT,
-        )  # fmt: skip
-        yield {"api": api, "env": env, "tmp": tmp, "deploy": deploy, "worker": worker, "worker_log": tmp / "worker.log"}
-    finally:
-        for proc in (worker, server):
-            if proc is not None:
-                proc.terminate()
-                try:
-                    proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
+    with local_server(tmp, {"RESCENE_RETRY_DELAY_S": "0.2"}) as env:
+        worker = None
+        try:
+            _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env, timeout=240)
+            deploy = _cli(
+                ["--no-prompt", "deploy", "--all", "--prefect-file", "deployments/prefect.yaml"], env, timeout=240
+            )
+            site = tmp / "site"
+            site.mkdir()
+            (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
+            worker_env = {**env, "RESCENE_TEST_FAKE_STAGES": "1", "PYTHONPATH": f"{site}{os.pathsep}{REPO}"}
+            worker_log = open(tmp / "worker.log", "w")  # noqa: SIM115 - closed with the worker
+            worker = subprocess.Popen(
+                [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
+                env=worker_env, cwd=REPO, stdout=worker_log, stderr=subprocess.STDOUT,
+            )  # fmt: skip
+            yield {
+                "api": env["PREFECT_API_URL"],
+                "env": env,
+                "tmp": tmp,
+                "deploy": deploy,
+                "worker": worker,
+                "worker_log": tmp / "worker.log",
+            }
+        finally:
+            stop(worker)
 
 
 @pytest.mark.slow
