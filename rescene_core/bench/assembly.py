@@ -35,7 +35,6 @@ from rescene_core.assembly.scenes import grid_scene
 from rescene_core.assembly.transforms import rigid_change, rotation_about, translation
 from rescene_core.config import AttachmentConfig
 from rescene_core.evaluation.structural import structural_metrics
-from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, RoomShell, Root, SceneGraph
 
 STAGES = ("none", "relations", "repair", "full")
@@ -435,24 +434,13 @@ def exact_shape_objects(capture, gt, instances, cache: Path) -> dict[InstanceId,
 def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> dict[str, Any]:
     """Stages of attachment from the real pipeline's registered poses, with the run's fused graph and with the
     ground-truth graph (see module doc and ``REGISTRATION_GRAPHS``)."""
-    import subprocess
-    import sys
-
+    from rescene_core.bench.runs import pipeline_run, synth_capture
     from rescene_core.capture import open_capture
     from rescene_core.capture.ground_truth import read_ground_truth
-    from rescene_core.capture.synth import write_synth
     from rescene_core.evaluation.scene import load_scene
 
-    capture = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
-    run_dir = work_dir / "runs" / f"{preset}_seed{seed}"
-    if not capture.exists():
-        write_synth(capture, preset=preset, seed=seed)
-    if not RunPaths(run_dir).scene_json.exists():
-        cli = Path(sys.executable).with_name("rescene")
-        done = subprocess.run([str(cli), "run", str(capture), "--out", str(run_dir)], capture_output=True, text=True)
-        if done.returncode != 0:
-            tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
-            raise RuntimeError(f"rescene run {capture} exited {done.returncode}:\n{tail}")
+    capture = synth_capture(work_dir, preset, seed)
+    run_dir = pipeline_run(capture, work_dir / "runs" / f"{preset}_seed{seed}")
     doc = load_scene(run_dir)
     cap = open_capture(capture, validate=False)
     gt = read_ground_truth(cap)

@@ -20,8 +20,6 @@ reported as not run.
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import time
 from datetime import datetime
 from pathlib import Path
@@ -29,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from rescene_core.bench.runs import pipeline_run
 from rescene_core.evaluation.geometry import GeometryConfig, compare, sample_meshes
 from rescene_core.evaluation.rendering import RenderingConfig, rendering_metrics
 from rescene_core.paths import RunPaths
@@ -126,15 +125,8 @@ def _run(capture: Path, run_dir: Path, method: str | None) -> float | None:
     from rescene_core.io import read_json
 
     paths = RunPaths(run_dir)
-    if not paths.scene_json.exists():
-        cli = Path(sys.executable).with_name("rescene")
-        cmd = [str(cli), "run", str(capture), "--out", str(run_dir)]
-        if method:
-            cmd += ["--set", f"hierview.method={method}"]
-        done = subprocess.run(cmd, capture_output=True, text=True)
-        if done.returncode != 0 and not paths.scene_json.exists():
-            tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
-            raise RuntimeError(f"{' '.join(cmd)} exited {done.returncode}:\n{tail}")
+    settings = [f"hierview.method={method}"] if method else []
+    pipeline_run(capture, run_dir, settings, accept_failed_with_scene=True)
     manifest = read_json(paths.manifest) if paths.manifest.exists() else {}
     try:
         a, b = (datetime.fromisoformat(manifest[k]) for k in ("started", "finished"))

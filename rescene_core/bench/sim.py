@@ -16,14 +16,13 @@ fraction, t=0 penetration (max, mean), objects fallen through and escaped, simul
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rescene_core.bench.runs import pipeline_run, synth_capture
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.scene import export_run
 from rescene_core.io import read_json
@@ -64,18 +63,7 @@ def gt_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig) -> di
 
 
 def pipeline_scene(preset: str, seed: int, work_dir: Path, config: ExportConfig) -> dict[str, Any]:
-    from rescene_core.capture.synth import write_synth
-
-    capture = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
-    run = work_dir / "runs" / f"{preset}_seed{seed}"
-    if not capture.exists():
-        write_synth(capture, preset=preset, seed=seed)
-    if not RunPaths(run).scene_json.exists():
-        cli = Path(sys.executable).with_name("rescene")
-        done = subprocess.run([str(cli), "run", str(capture), "--out", str(run)], capture_output=True, text=True)
-        if done.returncode != 0:
-            tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
-            raise RuntimeError(f"rescene run {capture} exited {done.returncode}:\n{tail}")
+    run = pipeline_run(synth_capture(work_dir, preset, seed), work_dir / "runs" / f"{preset}_seed{seed}")
     start = time.perf_counter()
     export_run(run, config)
     return {"run_dir": str(run), **_export_figures(RunPaths(run), time.perf_counter() - start)}
