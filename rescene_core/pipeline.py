@@ -115,6 +115,7 @@ def run_pipeline(
     missing_ids = {int(m.instance) for m in missing}
     graph = timed(Stage.FUSION, fuse, predictions, cap, shell, config.scenegraph, missing_ids)
     layout = timed(Stage.ATTACHMENT, attach, objects, graph, shell, config.attachment) if objects else None
+    completions = layout.completions() if layout else {}
     export_objects = [
         ExportObject(
             int(i),
@@ -123,6 +124,7 @@ def run_pipeline(
             o.faces,
             layout.world_from_asset.get(i, o.world_from_asset) if layout else o.world_from_asset,
             o.world_from_asset,
+            tuple(completions.get(i, ())),
         )
         for i, o in objects.items()
     ]

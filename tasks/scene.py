@@ -231,6 +231,7 @@ def export(
     with executing(run_dir, Stage.EXPORT) as seg:
         cap = open_capture(capture.path, validate=False)
         layout_rec = Layout.from_json(read_json(run.root / layout.path))
+        completions = layout_rec.completions()
         objects = [
             ExportObject(
                 o.instance,
@@ -239,6 +240,7 @@ def export(
                 o.faces,
                 layout_rec.world_from_asset.get(InstanceId(o.instance), o.world_from_asset),
                 o.world_from_asset,
+                tuple(completions.get(InstanceId(o.instance), ())),
             )
             for o in _placed(run_dir, cap, assets, poses)
         ]

@@ -178,27 +178,18 @@ def perturb(objects: dict, graph: SceneGraph, shell: RoomShell, seed: int) -> tu
 
 
 def metric_objects(objects: dict, layout) -> dict:
-    """``objects`` as the exported scene has them: each parent's mesh with the support planes the solver
-    found in its observed points (``support plane`` operations of ``layout``, a shelf board the generated mesh
-    lacks, which the exporter adds as a collider) appended as two-sided triangles in its asset frame."""
+    """``objects`` as the exported scene has them: each mesh with the completions the solver added from its
+    observed points (``Layout.completions``: a shelf board or a base the generated mesh lacks, which the
+    exporter adds as colliders) appended in its asset frame."""
     from dataclasses import replace
 
-    boards: dict[int, list[np.ndarray]] = {}
-    for op in layout.operations:
-        if op["rule"] == "support plane":
-            boards.setdefault(int(op["instance"]), []).append(np.asarray(op["polygon_asset"], np.float64))
+    from rescene_core.geometry.completion import completed_mesh
+
     out = dict(objects)
-    for i, polys in boards.items():
-        obj = objects[InstanceId(i)]
-        verts, faces = [obj.vertices], [obj.faces]
-        count = len(obj.vertices)
-        for poly in polys:
-            k = len(poly)
-            fan = np.array([[0, j, j + 1] for j in range(1, k - 1)], np.int64) + count
-            verts.append(poly)
-            faces += [fan, fan[:, ::-1]]
-            count += k
-        out[InstanceId(i)] = replace(obj, vertices=np.vstack(verts), faces=np.vstack(faces))
+    for i, completions in layout.completions().items():
+        obj = objects[InstanceId(int(i))]
+        vertices, faces = completed_mesh(obj.vertices, obj.faces, completions)
+        out[InstanceId(int(i))] = replace(obj, vertices=vertices, faces=faces)
     return out
 
 

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.records import Completion
+
 
 @dataclass(frozen=True)
 class ExportObject:
@@ -15,6 +17,8 @@ class ExportObject:
     vertices: float64 [v, 3] in the asset frame. faces: int64 [f, 3].
     world_from_asset: float64 [4, 4] Sim(3), the final (attached) pose.
     registered_world_from_asset: float64 [4, 4], the pose before attachment, when known.
+    completions: geometry attachment added from the object's observed points (shelf boards, a base), in
+      the asset frame; the simulation exports add them as colliders.
     """
 
     instance: int
@@ -23,6 +27,7 @@ class ExportObject:
     faces: NDArray[np.int64]
     world_from_asset: NDArray[np.float64]
     registered_world_from_asset: NDArray[np.float64] | None = None
+    completions: tuple[Completion, ...] = ()
 
     @property
     def node_name(self) -> str:

@@ -24,7 +24,7 @@ from rescene_core.export.shell import shell_meshes
 from rescene_core.export.simulation import export_simulation
 from rescene_core.geometry import sim3
 from rescene_core.io import hash_file, hash_tree, read_json, write_bytes_atomic
-from rescene_core.records import Missing, RoomShell, Root, SceneGraph, parent_to_json
+from rescene_core.records import Completion, Missing, RoomShell, Root, SceneGraph, parent_to_json
 
 SCENE_FORMAT = "rescene-scene"
 SCENE_VERSION = 1
@@ -113,6 +113,7 @@ def export_scene(
                 else np.asarray(obj.registered_world_from_asset).tolist(),
                 "parent": None if edge is None else edge.to_json()["parent"],
                 "relation": None if edge is None else edge.relation.value,
+                "completions": [c.to_json() for c in obj.completions],
             }
         )
     missing = list(missing)
@@ -170,6 +171,7 @@ def read_exported_scene(
                 np.asarray(mesh.faces, np.int64),
                 np.asarray(entry["world_from_asset"], np.float64),
                 None if registered is None else np.asarray(registered, np.float64),
+                tuple(Completion.from_json(c) for c in entry.get("completions", ())),
             )
         )
     shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None

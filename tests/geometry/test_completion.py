@@ -1,0 +1,52 @@
+"""Completion records: layout round trip, surfaces for contacts and solids for colliders."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from rescene_core.geometry.completion import completed_mesh, completion_solid, completion_surface
+from rescene_core.geometry.sim3 import apply, sim3_from_parts
+from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
+
+SQUARE = np.array([[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]], np.float64)
+
+
+def test_layout_reads_support_planes_and_bases_from_its_operations():
+    cube = np.array([[x, y, z] for x in (0, 0.2) for y in (0, 0.2) for z in (0, 0.3)])
+    ops = (
+        {"instance": 3, "rule": "support plane", "polygon_asset": SQUARE.tolist(), "source": "points"},
+        {"instance": 3, "rule": "floor snap"},
+        {"instance": 5, "rule": "base", "points_asset": cube.tolist(), "source": "legs seen"},
+    )
+    layout = Layout.from_json(Layout({}, ops).to_json())
+    got = layout.completions()
+    assert sorted(got) == [3, 5]
+    assert got[InstanceId(3)][0].kind is CompletionKind.SUPPORT_PLANE
+    assert got[InstanceId(5)][0].kind is CompletionKind.BASE and got[InstanceId(5)][0].source == "legs seen"
+    again = Completion.from_json(got[InstanceId(5)][0].to_json())
+    np.testing.assert_array_equal(again.points_asset, cube)
+
+
+def test_a_base_is_a_closed_outward_hull_and_a_board_is_two_sided():
+    cube = np.array([[x, y, z] for x in (0, 0.2) for y in (0, 0.2) for z in (0, 0.3)]) + 0.05
+    v, f = completion_surface(Completion(InstanceId(1), CompletionKind.BASE, cube))
+    mesh = trimesh.Trimesh(v, f, process=True)
+    assert mesh.is_watertight and mesh.volume > 0
+    np.testing.assert_allclose(mesh.volume, 0.2 * 0.2 * 0.3, rtol=1e-9)
+    v, f = completion_surface(Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, SQUARE))
+    assert len(f) == 4  # two triangles, each in both orientations
+    verts, faces = completed_mesh(
+        np.zeros((3, 3)), np.array([[0, 1, 2]]), [Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, SQUARE)]
+    )
+    assert len(verts) == 7 and faces.max() == 6
+
+
+def test_a_board_solid_is_its_thickness_below_the_plane_in_the_world():
+    # asset frame scaled by 2 and turned upside down: down in the world is +z in the asset
+    pose = sim3_from_parts(2.0, np.diag([1.0, -1.0, -1.0]), np.array([0.3, 0.0, 1.0]))
+    solid = completion_solid(Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, SQUARE), pose, 0.02)
+    world = apply(pose, solid)
+    assert solid.shape == (8, 3)
+    np.testing.assert_allclose(np.ptp(world[:, 2]), 0.02, atol=1e-12)
+    assert world[4:, 2].max() < world[:4, 2].min()
