@@ -563,6 +563,12 @@ class AttachmentConfig(_Section):
     after the confidence-scaled update; below it the contact is scaled by omega like the rest (the paper's
     low-confidence threshold).
     Default: the paper's low-confidence threshold (Appendix 'Multi-Frame Fusion Details'), applied here by the project."""
+    floor_trust_min_confidence: float | None = 0.30
+    """A ``rests-on floor`` edge below ``contact_closure_min_confidence`` but at least this confident is
+    trusted in full (its contact closed, a base added where the mesh lacks its lower part) when no other
+    object lies beneath the child: an object rests on something, and the floor is all there is under it.
+    Below it the edge is scaled by omega (a box fused at 0.05 onto the floor, seen 0.74 m up, is more likely
+    on an object the capture missed). None: never. Default: the project's choice."""
     bed_labels: tuple[str, ...] = ("bed",)
     """Labels the bed-wall refinement applies to. Default: the project's choice."""
     cabinet_labels: tuple[str, ...] = ("cabinet", "wardrobe", "dresser", "bookshelf", "bookcase", "shelf")

@@ -33,7 +33,7 @@ from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import level_correction, translation
 from rescene_core.geometry.sim3 import apply, inverse, scale_of
-from rescene_core.records import Edge, InstanceId
+from rescene_core.records import Completion, CompletionKind, Edge, InstanceId
 
 
 @dataclass(frozen=True)
@@ -84,8 +84,10 @@ def support_levels(state: LayoutState, parent: InstanceId) -> list[SupportLevel]
         cfg.support_normal_deg,
         cfg.support_level_tolerance,
     )
-    for board in state.boards.get(parent, ()):
-        world = apply(state.pose(parent), board)
+    for board in state.completions.get(parent, ()):
+        if board.kind is not CompletionKind.SUPPORT_PLANE:
+            continue
+        world = apply(state.pose(parent), board.points_asset)
         levels.append(SupportLevel(float(state.room.floor_distance(world).mean()), Polygon(world[:, :2])))
     return sorted(levels, key=lambda lv: -lv.height)
 
@@ -109,7 +111,7 @@ BOARD_BOX_MARGIN = 0.05
 def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId) -> SupportLevel | None:
     """A horizontal support plane of ``parent`` under ``child`` from the parent's observed points (a shelf
     board the capture saw but the generated mesh lacks), at the parent's current pose; None without
-    evidence. The plane spans the parent's footprint; it is recorded in ``state.boards`` (asset frame).
+    evidence. The plane spans the parent's footprint; it is recorded in ``state.completions`` (asset frame).
 
     Evidence, at the registered poses: the parent's points inside its registered mesh box (bleed from other
     objects left out) near the child's footprint, binned by height; the fullest bin within ``BOARD_WINDOW``
@@ -145,11 +147,23 @@ def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId)
         return None
     near = heights[np.abs(heights - centres[k]) <= BOARD_BIN]
     height = float(np.clip(np.percentile(near, 75), bottom - BOARD_WINDOW[0], bottom + BOARD_WINDOW[1]))
+    return plane_at(
+        state, parent, child, height, "the parent's observed points: a shelf board its generated mesh lacks"
+    )
+
+
+def plane_at(
+    state: LayoutState, parent: InstanceId, child: InstanceId, height: float, source: str
+) -> SupportLevel | None:
+    """A support plane of ``parent`` at ``height`` (m above the floor, found at the registered poses) under
+    ``child``, carried to the parent's current pose and recorded as a completion (asset frame); None when
+    the room has no usable up direction or the parent has no footprint."""
+    pobj, cobj, room = state.objects[parent], state.objects[child], state.room
     if abs(room.up[2]) < 1e-9:
         return None
     # the height found at the registered pose goes with the parent to its current pose; the plane spans the
     # parent's current footprint (shrunk by 1 cm, so it never reaches beyond the mesh), kept in its asset frame
-    centre = footprint(seen).centroid
+    centre = footprint(cobj.world_vertices()).centroid
     mark = np.array([[centre.x, centre.y, 0.0]])
     mark[0, 2] = (height - room.floor_distance(mark)[0]) / float(room.up[2])
     now_pose = state.pose(parent)
@@ -161,11 +175,36 @@ def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId)
     base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
     world = np.c_[ring, (now_height - base) / float(room.up[2])]
     board = apply(inverse(now_pose), world)
-    known = state.boards.setdefault(parent, [])
-    if not any(np.allclose(board, b, atol=1e-9) for b in known if b.shape == board.shape):
-        known.append(board)
+    state.add_completion(Completion(parent, CompletionKind.SUPPORT_PLANE, board, source))
     now = apply(state.pose(parent), board)
     return SupportLevel(float(room.floor_distance(now).mean()), Polygon(now[:, :2]))
+
+
+INNER_MIN_ABOVE_BOTTOM = 0.05
+"""A child's registered bottom must lie at least this far (m) above its generated parent's mesh bottom to
+count as standing on an inner shelf (lower, it stands on the parent's floor board or under it)."""
+INNER_FOOTPRINT_MARGIN = 0.05
+"""... and its footprint centre within this distance (m) of the parent's registered footprint."""
+
+
+def board_at_child(state: LayoutState, parent: InstanceId, child: InstanceId) -> SupportLevel | None:
+    """A support plane at the registered bottom of a child that stands inside its generated parent's volume
+    when the parent's points show no board there (occluded by what stands on it). The relation says the
+    child rests on the parent and the child's points say where it stands; inside a solid single-view
+    completion the only surface that can carry it is an inner shelf at that height. None when the child is
+    not inside the parent (its footprint centre outside the parent's registered footprint, or its bottom
+    within INNER_MIN_ABOVE_BOTTOM of the parent's bottom)."""
+    pobj, cobj, room = state.objects[parent], state.objects[child], state.room
+    seen = cobj.world_vertices()
+    parent_seen = pobj.world_vertices()
+    if not footprint(parent_seen).buffer(INNER_FOOTPRINT_MARGIN).contains(footprint(seen).centroid):
+        return None
+    bottom = float(room.floor_distance(seen).min())
+    if bottom < float(room.floor_distance(parent_seen).min()) + INNER_MIN_ABOVE_BOTTOM:
+        return None
+    return plane_at(
+        state, parent, child, bottom, "the child's registered bottom inside its generated parent (an inner shelf)"
+    )
 
 
 def seen_centre_shift(state: LayoutState, child: InstanceId, moved: NDArray, face: Polygon) -> NDArray[np.float64]:
@@ -211,7 +250,11 @@ def compile_support(
     if parent_generated and inner is not None and seen_bottom < levels[0].height - inner:
         # inside a generated parent: only a level near the child's own height will do (see the docstring)
         feasible = [lv for lv in feasible if abs(lv.height - seen_bottom) <= inner]
-        board = None if feasible else board_from_points(state, parent, child)
+        board, evidence = None, ""
+        if not feasible:
+            board, evidence = board_from_points(state, parent, child), "the parent's observed points"
+        if not feasible and board is None:
+            board, evidence = board_at_child(state, parent, child), "the child's registered bottom (an inner shelf)"
         if board is not None:
             feasible, levels = [board], sorted([*levels, board], key=lambda lv: -lv.height)
         if not feasible:
@@ -248,5 +291,5 @@ def compile_support(
         "placement": how,
     }
     if board is not None:
-        info["support_plane"] = "from the parent's observed points"
+        info["support_plane"] = evidence
     return correction, info

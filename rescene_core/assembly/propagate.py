@@ -19,16 +19,20 @@ snap above the floor. Tilt, yaw and lateral moves stay scaled by omega.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core.assembly.compile_wall import resolve_walls
+from rescene_core.assembly.completions import bounded_floor_snap
 from rescene_core.assembly.dispatch import compile_edge
 from rescene_core.assembly.evidence import evidence_refuses, wall_gap
+from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
 from rescene_core.geometry.sim3 import inverse, scale_by_confidence
-from rescene_core.records import InstanceId, Relation, Root
+from rescene_core.records import Edge, InstanceId, Relation, Root
 
 
 def contact_closure(state: LayoutState, child: InstanceId, info: dict) -> tuple[NDArray[np.float64], float]:
@@ -69,6 +73,7 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         if not use_walls and edge.relation is Relation.MOUNTS_ON and edge.parent is Root.WALL:
             state.skip(child, "wall attachment", "floor-only branch leaves wall edges out")
             continue
+        edge = trusted_floor_edge(state, child, edge)
         parent_delta = np.eye(4) if isinstance(edge.parent, Root) else state.delta[edge.parent].copy()
         state.delta[child] = parent_delta.copy()
         state._version[child] += 1
@@ -85,7 +90,13 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             state._version[child] += 1
             closure, closed = contact_closure(state, child, info)
             update = inverse(parent_delta) @ closure @ weighted @ parent_delta
-        refused = evidence_refuses(state, child, parent_delta @ update @ state.objects[child].world_from_asset)
+        target = parent_delta @ update @ state.objects[child].world_from_asset
+        refused = evidence_refuses(state, child, target)
+        if edge.parent is Root.FLOOR and edge.relation is Relation.RESTS_ON and has_evidence(state, child):
+            pose, taken = bounded_floor_snap(state, child, target)
+            if taken < 1.0:
+                floor_with_base(state, child, edge, pose, taken, stage, refused, info)
+                continue
         if refused is not None:
             keep_registered(state, child)
             state.skip(child, stage, refused)
@@ -103,3 +114,96 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         )
         if "wall_id" in info:
             state.wall_of[child] = int(info["wall_id"])
+
+
+BENEATH_MIN_SHARE = 0.2
+"""Another object whose footprint covers at least this share of an object's footprint, entirely below its
+bottom, is something it may stand on."""
+BENEATH_TOLERANCE = 0.05
+"""... 'below' allowing this much (m) of registration overlap."""
+
+
+def nothing_beneath(state: LayoutState, i: InstanceId) -> bool:
+    """Whether no other object (outside i's subtree) lies under object i at the registered poses: then the
+    floor is the only thing it can rest on."""
+    room = state.room
+    obj = state.objects[i]
+    verts = obj.world_vertices()
+    fp = footprint(verts)
+    bottom = float(room.floor_distance(verts).min())
+    own = set(state.forest.subtree(i))
+    for j, other in state.objects.items():
+        if j in own:
+            continue
+        ov = other.world_vertices()
+        if float(room.floor_distance(ov).max()) > bottom + BENEATH_TOLERANCE:
+            continue
+        if fp.area > 0 and fp.intersection(footprint(ov)).area >= BENEATH_MIN_SHARE * fp.area:
+            return False
+    return True
+
+
+def trusted_floor_edge(state: LayoutState, child: InstanceId, edge: Edge) -> Edge:
+    """``edge``, or, for a ``rests-on floor`` edge below ``contact_closure_min_confidence`` (and at least
+    ``floor_trust_min_confidence``) whose child has nothing beneath it, the same edge at confidence 1 (logged): an object rests on something, and the floor
+    is all there is under it, so a snap part way would leave it floating (a nightstand seen only over a
+    bed, fused at 0.4)."""
+    if not (edge.parent is Root.FLOOR and edge.relation is Relation.RESTS_ON):
+        return edge
+    cfg = state.config
+    if edge.confidence >= cfg.contact_closure_min_confidence or cfg.floor_trust_min_confidence is None:
+        return edge
+    if edge.confidence < cfg.floor_trust_min_confidence or not nothing_beneath(state, child):
+        return edge
+    state.log(
+        child,
+        "floor snap",
+        "trust floor edge",
+        confidence=float(edge.confidence),
+        reason="nothing lies beneath the object: the floor is the only support it can have",
+    )
+    return replace(edge, confidence=1.0)
+
+
+def has_evidence(state: LayoutState, i: InstanceId) -> bool:
+    """Whether object i is a generated asset with observed points that bound its moves."""
+    obj = state.objects[i]
+    return not obj.exact_shape and obj.points is not None and len(obj.points) > 0
+
+
+def floor_with_base(
+    state: LayoutState,
+    child: InstanceId,
+    edge: Edge,
+    pose: NDArray,
+    taken: float,
+    stage: str,
+    refused: str | None,
+    info: dict,
+) -> None:
+    """A floor snap the child's points would explain worse than a smaller one (its generated mesh lacks its
+    lower part): ``pose``, the part of the snap the points prefer (``completions.bounded_floor_snap``,
+    ``taken`` of it), and a base under the mesh at the final pose when the edge is confident enough to close
+    its contact (``contact_closure_min_confidence``)."""
+    registered = state.objects[child].world_from_asset
+    still = evidence_refuses(state, child, pose)
+    reason = refused or "the full snap would explain fewer of the object's observed points"
+    if still is None:
+        state.set_delta(
+            child,
+            pose @ inverse(registered),
+            stage,
+            "rests-on -> floor, bounded by points",
+            omega=float(edge.confidence),
+            snap_taken=taken,
+            reason=reason,
+            **{k: v for k, v in info.items() if k != "vertical_m"},
+        )
+    else:
+        keep_registered(state, child)
+        state.skip(child, stage, still)
+    if edge.confidence >= state.config.contact_closure_min_confidence:
+        state.base_wanted[child] = (
+            "the object's observed points keep its generated mesh above the floor it rests on "
+            f"({taken:.0%} of the floor snap taken): a base fills the gap"
+        )

@@ -24,6 +24,7 @@ from collections import defaultdict
 import numpy as np
 
 from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.completions import add_bases
 from rescene_core.assembly.depenetrate import depenetrate
 from rescene_core.assembly.graph import build_forest
 from rescene_core.assembly.objects import AssemblyObject, check_object
@@ -42,7 +43,7 @@ from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
-from rescene_core.records import InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
+from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
 
 
 def run_branch(state: LayoutState, world: CollisionWorld, use_walls: bool) -> LayoutState:
@@ -114,9 +115,12 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
                 merged.delta[i] = floor.delta[i].copy()
                 merged._version[i] += 1
                 merged.wall_of.pop(i, None)
-                merged.boards.pop(i, None)
-                if i in floor.boards:
-                    merged.boards[i] = list(floor.boards[i])
+                merged.completions.pop(i, None)
+                merged.base_wanted.pop(i, None)
+                if i in floor.completions:
+                    merged.completions[i] = list(floor.completions[i])
+                if i in floor.base_wanted:
+                    merged.base_wanted[i] = floor.base_wanted[i]
             merged.log(root, "dual attachment", "keep floor-only", reason=reason, members=[int(i) for i in members])
             switched = True
         elif differs:
@@ -129,29 +133,38 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
     return merged
 
 
-def record_boards(state: LayoutState) -> None:
-    """One 'support plane' operation per plane found in a parent's observed points, at the final pose: what
-    an exporter reads to add the shelf board the generated mesh lacks (a horizontal polygon, world and
-    parent-asset frame, height above the floor, the children standing on it)."""
+def record_completions(state: LayoutState) -> None:
+    """One operation per completion at the final pose, which exporters and metrics read back
+    (``Layout.completions``): a ``support plane`` (a horizontal polygon, world and parent-asset frame, its
+    height above the floor, the children standing on it) or a ``base`` (a convex solid's points)."""
     children: dict[InstanceId, list[int]] = defaultdict(list)
     for op in state.operations:
         if op.details.get("support_plane") and op.branch in (state.branch, "wall-aware", "floor-only"):
             children[InstanceId(int(op.details["parent"]))].append(int(op.instance or 0))
-    for parent, boards in sorted(state.boards.items()):
-        pose = state.pose(parent)
-        for board in boards:
-            world = apply(pose, board)
-            height = float(state.room.floor_distance(world).mean())
-            on = sorted({c for c in children.get(parent, []) if state.forest.edges.get(InstanceId(c)) is not None})
+    for i, completions in sorted(state.completions.items()):
+        pose = state.pose(i)
+        for c in completions:
+            world = apply(pose, c.points_asset)
+            if c.kind is CompletionKind.BASE:
+                state.log(
+                    i,
+                    "completions",
+                    c.kind.value,
+                    points_asset=c.points_asset,
+                    source=c.source,
+                    height_m=float(state.room.floor_distance(world).max()),
+                )
+                continue
+            on = sorted({k for k in children.get(i, []) if state.forest.edges.get(InstanceId(k)) is not None})
             state.log(
-                parent,
-                "support planes",
-                "support plane",
-                height_m=height,
+                i,
+                "completions",
+                c.kind.value,
+                height_m=float(state.room.floor_distance(world).mean()),
                 polygon_world=world,
-                polygon_asset=board,
+                polygon_asset=c.points_asset,
                 children=on,
-                source="parent's observed points (a shelf board its generated mesh lacks)",
+                source=c.source,
             )
 
 
@@ -191,7 +204,8 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         final = choose_branches(wall_state, floor_state, world)
     else:
         final = wall_state
-    record_boards(final)
+    add_bases(final)
+    record_completions(final)
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},
         operations=tuple(op.to_json() for op in final.operations),

@@ -14,7 +14,7 @@ from rescene_core.assembly.objects import AssemblyObject, footprint
 from rescene_core.assembly.operations import Operation
 from rescene_core.assembly.room import Room
 from rescene_core.config import AttachmentConfig
-from rescene_core.records import InstanceId
+from rescene_core.records import Completion, InstanceId
 
 
 @dataclass
@@ -36,9 +36,12 @@ class LayoutState:
     """Concrete wall each wall-mounted object was attached to."""
     unfit: frozenset[InstanceId] = frozenset()
     """Objects whose footprint cannot fit inside the room: no repair or depenetration moves them."""
-    boards: dict[InstanceId, list[NDArray[np.float64]]] = field(default_factory=dict)
-    """Support planes found in a parent's observed points (shelf boards its generated mesh lacks): per
-    parent, each plane's polygon [k, 3] in the parent's asset frame (compile_support.board_from_points)."""
+    completions: dict[InstanceId, list[Completion]] = field(default_factory=dict)
+    """Geometry a generated mesh lacks, added from evidence: support planes (shelf boards, in the parent's
+    asset frame; compile_support) per parent, as they are found."""
+    base_wanted: dict[InstanceId, str] = field(default_factory=dict)
+    """Objects resting on the floor whose mesh the evidence keeps above it (a generated mesh lacking its
+    lower part), with the reason: they get a base at their final pose (completions.add_bases)."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
 
@@ -58,8 +61,16 @@ class LayoutState:
             list(self.operations),
             dict(self.wall_of),
             self.unfit,
-            {k: list(v) for k, v in self.boards.items()},
+            {k: list(v) for k, v in self.completions.items()},
+            dict(self.base_wanted),
         )
+
+    def add_completion(self, completion: Completion) -> None:
+        """Record ``completion`` once (an identical one found again by the other branch or edge is kept once)."""
+        known = self.completions.setdefault(completion.instance, [])
+        same = (c for c in known if c.kind is completion.kind and c.points_asset.shape == completion.points_asset.shape)
+        if not any(np.allclose(c.points_asset, completion.points_asset, atol=1e-9) for c in same):
+            known.append(completion)
 
     def pose(self, i: InstanceId) -> NDArray[np.float64]:
         """Current world_from_asset [4, 4] of object i."""

@@ -50,21 +50,31 @@ def test_shelf_board_from_the_parents_points():
     assert plain["support_contact_pass"] == 0.0 and boarded["support_contact_pass"] == 1.0
 
 
-def test_no_board_without_a_band_of_points():
+def test_without_a_band_of_points_the_board_is_at_the_childs_registered_bottom():
+    # the parent's points show no board (the books hide it): the child inside the solid completion can only
+    # stand on an inner shelf at its own registered bottom
     objects, graph, shell = _shelf_scene(_bookshelf_points(np.random.default_rng(0), []))
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    planes = [op for op in layout.operations if op["rule"] == "support plane"]
+    assert len(planes) == 1 and "child's registered bottom" in planes[0]["source"]
+    assert abs(planes[0]["height_m"] - 0.905) < 0.005
+    # the child keeps its registered height (on the board), not lifted 0.9 m onto the top
+    assert abs(layout.world_from_asset[InstanceId(2)][2, 3] - 0.905) < 1e-9
+    boarded = structural_metrics(metric_objects(objects, layout), layout, graph, shell)
+    assert boarded["support_contact_pass"] == 1.0
+
+
+def test_no_inner_board_for_a_child_outside_its_parent():
+    # registered beside the shelf, 0.9 m up: nothing inside the parent can carry it
+    objects, graph, shell = _shelf_scene(_bookshelf_points(np.random.default_rng(0), []))
+    objects[InstanceId(2)] = box_object(2, "book stack", (0.3, 0.25, 0.2), placed(3.2, 4.5, 0.905), exact_shape=False)
     layout = attach(objects, graph, shell, AttachmentConfig())
     assert not [op for op in layout.operations if op["rule"] == "support plane"]
     skip = [op for op in layout.operations if op["instance"] == 2 and op["rule"] == "skip"]
     assert skip and "inner shelf" in skip[0]["reason"]
-    # the child keeps its registered pose, moved only by the repairs that carry its parent
-    parent_move = layout.world_from_asset[InstanceId(1)] @ np.linalg.inv(objects[InstanceId(1)].world_from_asset)
-    np.testing.assert_allclose(
-        layout.world_from_asset[InstanceId(2)], parent_move @ objects[InstanceId(2)].world_from_asset, atol=1e-9
-    )
-    assert abs(layout.world_from_asset[InstanceId(2)][2, 3] - 0.905) < 1e-9
 
 
-def test_floor_snap_refused_when_it_leaves_the_seen_points():
+def test_a_table_top_without_legs_keeps_its_height_and_gets_a_base():
     # a generated table top (the mesh lacks the legs) registered where it was seen, 0.72 m up
     rng = np.random.default_rng(1)
     top = np.c_[rng.uniform(1.0, 2.0, 500), rng.uniform(2.0, 2.8, 500), rng.uniform(0.72, 0.76, 500)]
@@ -72,8 +82,68 @@ def test_floor_snap_refused_when_it_leaves_the_seen_points():
     graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.95),))
     layout = attach({InstanceId(1): table}, graph, rect_room(), AttachmentConfig())
     np.testing.assert_allclose(layout.world_from_asset[InstanceId(1)], table.world_from_asset, atol=1e-9)
-    skip = [op for op in layout.operations if op["instance"] == 1 and op["stage"] == "floor snap"]
-    assert skip and "observed points" in skip[0]["reason"]
+    snap = [op for op in layout.operations if op["instance"] == 1 and op["stage"] == "floor snap"]
+    assert snap and "observed points" in snap[0]["reason"] and snap[0]["snap_taken"] == 0.0
+    bases = layout.completions()[InstanceId(1)]
+    assert [c.kind.value for c in bases] == ["base"]
+    world = table.world_vertices(layout.world_from_asset[InstanceId(1)])
+    base = bases[0].points_asset @ np.eye(3)  # asset frame = world here (placed without rotation or scale)
+    base = base + table.world_from_asset[:3, 3]
+    assert abs(base[:, 2].min()) < 1e-9 and abs(base[:, 2].max() - (world[:, 2].min() + 0.01)) < 1e-6
+    plain = structural_metrics({InstanceId(1): table}, layout, graph, rect_room())
+    completed = structural_metrics(metric_objects({InstanceId(1): table}, layout), layout, graph, rect_room())
+    assert plain["floor_contact_pass"] == 0.0 and completed["floor_contact_pass"] == 1.0
+    # an edge too weak to trust gets no base
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.2),))
+    assert not attach({InstanceId(1): table}, graph, rect_room(), AttachmentConfig()).completions()
+
+
+def test_a_weak_floor_edge_is_trusted_only_when_nothing_lies_beneath():
+    # a nightstand seen 0.2 m up (its lower part hidden), its floor edge fused at 0.45
+    rng = np.random.default_rng(3)
+    pts = np.c_[rng.uniform(1.3, 1.7, 400), rng.uniform(2.3, 2.7, 400), rng.uniform(0.2, 0.6, 400)]
+    stand = replace(box_object(1, "nightstand", (0.4, 0.4, 0.4), placed(1.5, 2.5, 0.2), exact_shape=False), points=pts)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.45),))
+    layout = attach({InstanceId(1): stand}, graph, rect_room(), AttachmentConfig())
+    assert [op["rule"] for op in layout.operations if op["instance"] == 1][0] == "trust floor edge"
+    completed = structural_metrics(metric_objects({InstanceId(1): stand}, layout), layout, graph, rect_room())
+    assert completed["floor_contact_pass"] == 1.0
+    # a crate under it (no edge between them): the floor is not all there is, the weak edge stays weak
+    crate = box_object(2, "box", (0.5, 0.5, 0.18), placed(1.5, 2.5), exact_shape=False)
+    graph = SceneGraph((*graph.edges, Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0)))
+    layout = attach({InstanceId(1): stand, InstanceId(2): crate}, graph, rect_room(), AttachmentConfig())
+    assert not [op for op in layout.operations if op["rule"] == "trust floor edge"]
+    assert InstanceId(1) not in layout.completions()
+    # and the threshold can switch the rule off
+    cfg = AttachmentConfig(floor_trust_min_confidence=None)
+    layout = attach({InstanceId(1): stand}, SceneGraph(graph.edges[:1]), rect_room(), cfg)
+    assert not [op for op in layout.operations if op["rule"] == "trust floor edge"]
+
+
+def test_a_short_mesh_registered_too_high_comes_down_to_its_points_top():
+    # a floor lamp 1.6 m tall seen whole; its generated mesh is 1.0 m tall, registered 0.3 m too high
+    rng = np.random.default_rng(2)
+    pole = np.c_[rng.normal(2.0, 0.02, 800), rng.normal(2.0, 0.02, 800), rng.uniform(0.0, 1.2, 800)]
+    shade = np.c_[rng.uniform(1.8, 2.2, 800), rng.uniform(1.8, 2.2, 800), rng.uniform(1.2, 1.6, 800)]
+    lamp = box_object(1, "floor lamp", (0.4, 0.4, 1.0), placed(2.0, 2.0, 0.9), exact_shape=False)
+    lamp = replace(lamp, points=np.vstack([pole, shade]))
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.9),))
+    layout = attach({InstanceId(1): lamp}, graph, rect_room(), AttachmentConfig())
+    world = lamp.world_vertices(layout.world_from_asset[InstanceId(1)])
+    assert abs(world[:, 2].max() - 1.6) < 0.05  # its top on the top of its points, not 0.3 m above
+    (base,) = layout.completions()[InstanceId(1)]
+    base_world = base.points_asset + layout.world_from_asset[InstanceId(1)][:3, 3]
+    assert abs(base_world[:, 2].min()) < 1e-9
+    assert np.ptp(base_world[:, 0]) < 0.2  # under the pole the points show, not the whole shade
+    completed = structural_metrics(metric_objects({InstanceId(1): lamp}, layout), layout, graph, rect_room())
+    assert completed["floor_contact_pass"] == 1.0
+
+
+def test_a_slab_seen_on_the_floor_is_snapped_down():
+    rng = np.random.default_rng(1)
+    top = np.c_[rng.uniform(1.0, 2.0, 500), rng.uniform(2.0, 2.8, 500), rng.uniform(0.72, 0.76, 500)]
+    table = replace(box_object(1, "table", (1.0, 0.8, 0.05), placed(1.5, 2.4, 0.72), exact_shape=False), points=top)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.95),))
     # the same slab whose points were seen on the floor is snapped down
     low = replace(table, points=top - [0.0, 0.0, 0.72])
     layout = attach({InstanceId(1): low}, graph, rect_room(), AttachmentConfig())

@@ -133,8 +133,10 @@ def test_confident_edge_closes_its_floor_contact():
 
 
 def test_low_confidence_edge_is_scaled_not_closed():
+    # (a weak floor edge with nothing beneath the child is trusted in full unless that rule is off)
     obj, graph, shell = _generated_cabinet(0.5, confidence=0.5, lift=0.3)
-    layout = attach({obj.instance: obj}, graph, shell, AttachmentConfig(stop_after="relations"))
+    cfg = AttachmentConfig(stop_after="relations", floor_trust_min_confidence=None)
+    layout = attach({obj.instance: obj}, graph, shell, cfg)
     assert apply(layout.world_from_asset[obj.instance], obj.vertices)[:, 2].min() == pytest.approx(0.15, abs=1e-9)
 
 
@@ -219,8 +221,10 @@ def test_a_child_inside_a_generated_parent_stays_on_the_inner_shelf_the_mesh_lac
     layout = attach(objects, graph, shell, AttachmentConfig(stop_after="relations"))
     z = apply(layout.world_from_asset[InstanceId(2)], objects[InstanceId(2)].vertices)[:, 2].min()
     assert z == pytest.approx(0.8, abs=1e-6)  # not lifted 1 m onto the top
-    skip = next(op for op in layout.operations if op["instance"] == 2 and op["rule"] == "skip")
-    assert "inner shelf" in skip["reason"]
+    placed = next(op for op in layout.operations if op["instance"] == 2 and op["stage"] == "object support")
+    assert placed["rule"] == "rests-on -> object" and "inner shelf" in placed["support_plane"]
+    (plane,) = layout.completions()[InstanceId(1)]
+    assert apply(layout.world_from_asset[InstanceId(1)], plane.points_asset)[:, 2] == pytest.approx(0.8, abs=1e-6)
 
 
 def test_a_child_sunk_into_the_top_of_a_generated_parent_is_put_on_top():

@@ -11,7 +11,8 @@ from rescene_core.config import AttachmentConfig
 from rescene_core.records import Edge, InstanceId, SceneGraph
 from tests.assembly.helpers import moved, scene
 
-RELATIONS = AttachmentConfig(stop_after="relations", dual_attachment=False)
+RELATIONS = AttachmentConfig(stop_after="relations", dual_attachment=False, floor_trust_min_confidence=None)
+"""Eq. 5 on its own: weak floor edges are not trusted in full here (propagate.trusted_floor_edge)."""
 
 
 def with_confidence(graph: SceneGraph, child: int, omega: float) -> SceneGraph:

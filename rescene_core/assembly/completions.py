@@ -1,0 +1,119 @@
+"""Floor contact for generated meshes that lack their lower part: the snap the points allow, then a base.
+
+A single-view completion often lacks what its view did not show of an object's lower part (a table top
+without legs, a lamp shade without its stem, a nightstand seen over a bed). Registered on the object's
+points, such a mesh hangs above the floor, and dropping it onto the floor moves it away from where the
+capture saw it (``evidence.evidence_refuses``). Instead:
+
+1. ``bounded_floor_snap``: the full snap when its mesh box explains the object's observed points
+   (POINTS_FIT_MARGIN) as well as any height between the registered one and the floor does (within
+   FIT_TIE); otherwise the height that explains the most, ties to the smallest move. The levelling, yaw
+   and footprint corrections of the floor rule are kept. A mesh that is too short and too high comes down
+   until its top meets the top of its points.
+2. ``add_bases``: at the final pose, the gap left between the mesh and the floor is filled with a base, a
+   convex solid from the floor to 1 cm into the mesh, under the part of the object the points show below
+   the mesh (the xy hull of those points, clipped to the mesh's footprint), or under the mesh's own lowest
+   part when the points show nothing there. It is a ``Completion`` (kind ``base``) in the object's asset
+   frame: contact metrics count it and the exporters add it as a collider, so the simulator sees the same
+   object the metrics judged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from shapely.geometry import MultiPoint, Polygon
+
+from rescene_core.assembly.evidence import points_fit
+from rescene_core.assembly.objects import footprint
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import translation
+from rescene_core.geometry.sim3 import apply, inverse
+from rescene_core.records import Completion, CompletionKind, InstanceId
+
+SNAP_STEPS = 41
+"""Vertical positions tried between the registered height and the full floor snap."""
+FIT_TIE = 0.01
+"""Points-fit shares within this of the best count as equally good (the smallest move wins)."""
+BASE_MIN_GAP = 0.005
+"""A gap (m) between the mesh and the floor smaller than this needs no base."""
+BASE_OVERLAP = 0.01
+"""How far (m) a base reaches up into the mesh, so the two touch."""
+BASE_LOW_BAND = 0.03
+"""Points (and, without them, mesh vertices) this close (m) above the mesh bottom, or lower, outline the
+base."""
+BASE_MIN_POINTS = 12
+"""Fewest observed points below the mesh bottom that outline a base by themselves."""
+BASE_MIN_AREA = 0.0016
+"""Smallest base outline (m^2, 4 x 4 cm); a smaller one is grown to it."""
+
+
+def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray) -> tuple[NDArray, float]:
+    """World pose [4, 4] of ``child`` between its registered height and ``full_pose`` (its full floor snap)
+    whose mesh box explains the most of its observed points, and the fraction of the snap taken (0 to 1)."""
+    room = state.room
+    obj = state.objects[child]
+    verts = obj.world_vertices(full_pose)
+    registered_bottom = float(room.floor_distance(obj.world_vertices()).min())
+    snapped_bottom = float(room.floor_distance(verts).min())
+    drop = registered_bottom - snapped_bottom  # > 0: the snap moves the object down
+    candidates = []
+    for k in range(SNAP_STEPS):
+        taken = k / (SNAP_STEPS - 1)
+        pose = translation((1.0 - taken) * drop * room.up) @ full_pose
+        candidates.append((points_fit(obj, pose) or 0.0, taken, pose))
+    best = max(fit for fit, _, _ in candidates)
+    if candidates[-1][0] >= best - FIT_TIE:  # the full snap explains the points as well: contact, no base
+        return full_pose, 1.0
+    # in order of the move taken: the first within FIT_TIE of the best is the smallest such move
+    fit, taken, pose = next(c for c in candidates if c[0] >= best - FIT_TIE)
+    return pose, taken
+
+
+def _outline(state: LayoutState, i: InstanceId, verts: NDArray, bottom: float) -> Polygon | None:
+    """Horizontal outline (world xy) of the base of object i, whose world vertices are ``verts`` [v, 3] with
+    their lowest point ``bottom`` m above the floor (see the module docstring)."""
+    room, obj = state.room, state.objects[i]
+    mesh_fp = footprint(verts)
+    outline = None
+    if obj.points is not None and len(obj.points):
+        pts = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
+        low = pts[room.floor_distance(pts) < bottom + BASE_LOW_BAND]
+        low = low[shapely.contains_xy(mesh_fp.buffer(0.02), low[:, 0], low[:, 1])]
+        if len(low) >= BASE_MIN_POINTS:
+            hull = MultiPoint(low[:, :2]).convex_hull
+            outline = hull.intersection(mesh_fp) if isinstance(hull, Polygon) else None
+    if outline is None or outline.is_empty or outline.area < BASE_MIN_AREA:
+        lowest = verts[room.floor_distance(verts) < bottom + BASE_LOW_BAND]
+        hull = MultiPoint(lowest[:, :2]).convex_hull
+        outline = hull if isinstance(hull, Polygon) else hull.buffer(0.02)
+    if outline.area < BASE_MIN_AREA:
+        outline = outline.centroid.buffer(np.sqrt(BASE_MIN_AREA / np.pi))
+    hull = outline.convex_hull
+    return hull if isinstance(hull, Polygon) and not hull.is_empty else None
+
+
+def add_bases(state: LayoutState) -> None:
+    """Add a base completion to every object in ``state.base_wanted`` that its final pose leaves above the
+    floor (module docstring)."""
+    room = state.room
+    if abs(room.up[2]) < 1e-9:
+        return
+    for i, reason in sorted(state.base_wanted.items()):
+        verts = state.vertices(i)
+        bottom = float(room.floor_distance(verts).min())
+        if bottom < BASE_MIN_GAP:
+            continue
+        outline = _outline(state, i, verts, bottom)
+        if outline is None:
+            continue
+        ring = np.asarray(outline.exterior.coords)[:-1]
+        flat = np.c_[ring, np.zeros(len(ring))]
+        offset = room.floor_distance(flat)  # height of z = 0 above the floor at each ring point
+        up_z = float(room.up[2])
+        floor_ring = np.c_[ring, -offset / up_z]
+        top_ring = np.c_[ring, (bottom + BASE_OVERLAP - offset) / up_z]
+        world = np.vstack([floor_ring, top_ring])
+        points_asset = apply(inverse(state.pose(i)), world)
+        state.add_completion(Completion(i, CompletionKind.BASE, points_asset, reason))
