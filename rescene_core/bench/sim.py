@@ -42,7 +42,7 @@ def _export_figures(run: RunPaths, seconds: float) -> dict[str, Any]:
         "pieces_per_object": round(float(np.mean([o["collision_pieces"] for o in objs])), 2) if objs else 0.0,
         "decomposed": len(fresh),
         "decompose_s_per_object": round(float(np.mean(fresh)), 2) if fresh else None,
-        "fallbacks": sum(1 for o in objs if o["collision_method"] not in ("coacd", "components")),
+        "fallbacks": sum(1 for o in objs if o["collision_method"] not in ("coacd", "components", "shell")),
         "exact": sum(1 for o in objs if o["collision_method"] == "components"),
         "guessed": report["guessed"],
     }

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,8 +18,9 @@ import numpy as np
 
 from rescene_core import paths
 from rescene_core.config import ExportConfig
-from rescene_core.export.collision import DecompositionSettings, decompose_all
-from rescene_core.export.mjcf import build_spec, write_mjcf
+from rescene_core.export.collision import Decomposition, DecompositionSettings, decompose_all
+from rescene_core.export.completions import edit_colliders, find_hollow
+from rescene_core.export.mjcf import body_kind, build_spec, write_mjcf
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import load_physics_table
 from rescene_core.export.usd import write_usd
@@ -72,12 +73,20 @@ def export_simulation(
     mjcf_file, report_file = _in_scene(paths.SCENE_MJCF), _in_scene(paths.EXPORT_REPORT)
     started = time.perf_counter()
     table = load_physics_table(config.physics_table)
+    hollow = find_hollow(objects, graph, shell)  # their pieces are a shell: nothing to decompose
     meshes = {
         o.node_name: (np.asarray(o.vertices, np.float64) * (scale_of(o.world_from_asset) or 1.0), np.asarray(o.faces))
         for o in objects
+        if o.node_name not in hollow
     }
     decompositions = decompose_all(meshes, decomposition_settings(config))
+    for name in hollow:
+        decompositions[name] = Decomposition((), "shell", 0.0, False, ("hollow shell and boards, no decomposition",))
     decompose_s = time.perf_counter() - started
+    pieces = {name: list(dec.pieces) for name, dec in decompositions.items()}
+    kinds = {o.node_name: body_kind(o.instance, graph)[0] for o in objects}
+    edits = edit_colliders(objects, pieces, hollow, graph, kinds, {n: d.method for n, d in decompositions.items()})
+    decompositions = {name: replace(dec, pieces=tuple(pieces[name])) for name, dec in decompositions.items()}
     mjcf_dir = out_dir / _in_scene(paths.SCENE_MJCF_DIR)
     mjcf_dir.mkdir(parents=True, exist_ok=True)
     spec, bodies = build_spec(
@@ -104,10 +113,15 @@ def export_simulation(
             | {
                 "seconds_decomposition": decompositions[b.node].seconds,
                 "decomposition_cached": decompositions[b.node].cached,
+                "colliders_from_layout": edits[b.node].to_json(),
             }
             for b in bodies
         ],
         "guessed": sum(1 for b in bodies if b.notes),
+        "completions_added": sum(len(e.completions) for e in edits.values()),
+        "hollow_shells": sorted(n for n, e in edits.items() if e.hollow),
+        "seats_cut": sum(sum(1 for s in e.seats if s.get("cut")) for e in edits.values()),
+        "footings": sorted(n for n, e in edits.items() if e.footing and e.footing.get("band_m")),
         "missing": [m.to_json() for m in missing],
         "seconds": {"decomposition": round(decompose_s, 3), "total": round(time.perf_counter() - started, 3)},
     }

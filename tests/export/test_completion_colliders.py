@@ -1,0 +1,220 @@
+"""Colliders the layout adds or changes: completions (boards, bases), hollow parents, seats, footings, clipping;
+checked in MJCF and USD, in the export report and with the real physics check."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from rescene_core.export import ExportConfig, ExportObject, export_scene
+from rescene_core.export.completions import (
+    BOARD_THICKNESS,
+    Placement,
+    clip_to_mesh,
+    cut_seat,
+    footing,
+)
+from rescene_core.geometry import sim3
+from rescene_core.records import (
+    Completion,
+    CompletionKind,
+    Edge,
+    InstanceId,
+    Plane,
+    Relation,
+    RoomShell,
+    Root,
+    SceneGraph,
+    WallPlane,
+)
+from rescene_core.sim import SimcheckConfig, simcheck_run
+
+pytest.importorskip("mujoco")
+
+SHELL = RoomShell(
+    floor=Plane((0.0, 0.0, 1.0), 0.0),
+    walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),),
+    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
+    ceiling_height=2.5,
+)
+SHELF_EXTENTS = (0.8, 0.35, 1.6)
+YAW_180 = np.diag([-1.0, -1.0, 1.0])
+SHELF_CENTRE = np.array([0.0, -2.0 + 0.175 + 0.001, 0.8])
+
+
+def _board(height: float) -> np.ndarray:
+    """A board polygon at world ``height`` in the shelf's asset frame (asset z = world z - 0.8)."""
+    x, y = SHELF_EXTENTS[0] / 2 - 0.01, SHELF_EXTENTS[1] / 2 - 0.01
+    return np.array([[-x, -y, height - 0.8], [x, -y, height - 0.8], [x, y, height - 0.8], [-x, y, height - 0.8]])
+
+
+def shelf_scene(with_boards: bool) -> tuple[list[ExportObject], SceneGraph]:
+    """A solid box 'generated' shelf backing onto wall 0 and a book standing inside it on a board at 0.5 m."""
+    box = trimesh.creation.box(SHELF_EXTENTS)
+    completions = (
+        tuple(
+            Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, _board(h), "parent's observed points (test)")
+            for h in (0.5, 1.0)
+        )
+        if with_boards
+        else ()
+    )
+    shelf = ExportObject(
+        1,
+        "bookshelf",
+        box.vertices,
+        box.faces,
+        sim3.sim3_from_parts(1.0, YAW_180, SHELF_CENTRE),
+        completions=completions,
+    )
+    book_mesh = trimesh.creation.box((0.2, 0.15, 0.25))
+    book = ExportObject(
+        2,
+        "book",
+        book_mesh.vertices,
+        book_mesh.faces,
+        sim3.sim3_from_parts(1.0, np.eye(3), [0.05, SHELF_CENTRE[1], 0.5 + 0.125]),
+    )
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.9),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 0.9),
+        )
+    )
+    return [shelf, book], graph
+
+
+def _export(tmp_path, objects, graph, name="run"):
+    run = tmp_path / name
+    export_scene(run / "scene", objects, SHELL, graph, [], ExportConfig(decomposition_cache=str(tmp_path / "cache")))
+    return run
+
+
+@pytest.fixture(scope="module")
+def shelf_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("shelf")
+    objects, graph = shelf_scene(with_boards=True)
+    return _export(tmp, objects, graph)
+
+
+def test_a_book_on_a_board_inside_a_hollow_shelf_stays(shelf_run):
+    result = simcheck_run(shelf_run, SimcheckConfig())
+    by_node = {o.node: o for o in result.objects}
+    book = by_node["obj_2_book"]
+    assert book.penetration_t0 < 2e-3
+    assert book.stable and book.translation < 0.01, book
+    assert by_node["obj_1_bookshelf"].stable
+
+
+def test_without_boards_the_solid_shelf_pushes_the_book_out(tmp_path):
+    objects, graph = shelf_scene(with_boards=False)
+    result = simcheck_run(_export(tmp_path, objects, graph), SimcheckConfig())
+    book = {o.node: o for o in result.objects}["obj_2_book"]
+    assert book.penetration_t0 > 0.05 and not book.stable
+
+
+def test_report_lists_boards_and_the_open_side(shelf_run):
+    report = json.loads((shelf_run / "scene/export_report.json").read_text())
+    shelf = {o["node"]: o for o in report["objects"]}["obj_1_bookshelf"]
+    edits = shelf["colliders_from_layout"]
+    assert [c["kind"] for c in edits["completions"]] == ["support plane", "support plane"]
+    assert all(c["evidence_derived"] and c["source"] for c in edits["completions"])
+    assert edits["completions"][0]["height_m"] == pytest.approx(0.5, abs=1e-6)
+    hollow = edits["hollow_shell"]
+    # asset +y backs onto wall 0 (the shelf is turned 180 deg), so asset -y is open and faces +y in the world
+    assert hollow["open_side"].startswith("-y") and "wall 0" in hollow["reason"]
+    assert hollow["open_side_world"] == pytest.approx([0.0, 1.0, 0.0], abs=1e-6)
+    assert shelf["collision_method"] == "shell" and shelf["collision_pieces"] == 5 + 2
+    assert report["hollow_shells"] == ["obj_1_bookshelf"] and report["completions_added"] == 2
+
+
+def test_boards_are_collision_pieces_in_mjcf_and_usd(shelf_run):
+    import mujoco
+    from pxr import Usd, UsdPhysics
+
+    model = mujoco.MjModel.from_xml_path(str(shelf_run / "scene/mjcf/scene.xml"))
+    body = model.body("obj_1_bookshelf").id
+    groups = [int(model.geom_group[g]) for g in range(model.ngeom) if model.geom_bodyid[g] == body]
+    assert groups.count(3) == 7 and groups.count(1) == 1  # 5 panels + 2 boards; one visual mesh
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    tops = []
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] == body and model.geom_group[g] == 3:
+            mesh = model.geom_dataid[g]
+            start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+            local = model.mesh_vert[start : start + count]
+            world = local @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+            tops.append((round(float(world[:, 2].max()), 4), round(float(np.ptp(world[:, 2])), 4)))
+    assert (0.5, BOARD_THICKNESS) in tops and (1.0, BOARD_THICKNESS) in tops
+    stage = Usd.Stage.Open(str(shelf_run / "scene/scene.usda"))
+    shelf = stage.GetPrimAtPath("/World/Objects/obj_1_bookshelf")
+    colliders = [c for c in shelf.GetChildren() if c.HasAPI(UsdPhysics.CollisionAPI)]
+    assert len(colliders) == 7
+
+
+def test_a_base_becomes_the_hull_of_its_points(tmp_path):
+    top = trimesh.creation.box((0.6, 0.6, 0.1))  # a table top the generated mesh shows without its leg
+    base_points = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.75, -0.05)])
+    table = ExportObject(
+        1,
+        "table",
+        top.vertices,
+        top.faces,
+        sim3.sim3_from_parts(1.0, np.eye(3), [0.0, 0.0, 0.75]),
+        completions=(Completion(InstanceId(1), CompletionKind.BASE, base_points, "floor under the top (test)"),),
+    )
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.9),))
+    run = _export(tmp_path, [table], graph)
+    report = json.loads((run / "scene/export_report.json").read_text())
+    entry = report["objects"][0]["colliders_from_layout"]
+    assert entry["completions"][0]["kind"] == "base" and entry["hollow_shell"] is None
+    result = simcheck_run(run, SimcheckConfig())
+    assert result.objects[0].stable and result.summary["penetration_t0_max"] < 1e-3  # it stands on its base
+
+
+def test_cut_seat_removes_only_the_column_above_the_level():
+    box = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    pieces, removed = cut_seat([(box.vertices, box.faces)], np.array([0.4, 0.4]), np.array([0.6, 0.6]), 0.5)
+    assert removed == pytest.approx(0.5)
+    volume = sum(trimesh.Trimesh(v, f).volume for v, f in pieces)
+    assert volume == pytest.approx(1.0 - 0.2 * 0.2 * 0.5, abs=1e-9)
+    centre = np.array([0.5, 0.5, 0.75])
+    for v, f in pieces:
+        assert not trimesh.Trimesh(v, f).contains([centre])[0]
+
+
+def _place(mesh: trimesh.Trimesh) -> Placement:
+    return Placement(np.eye(3), np.zeros(3), 1.0, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+
+
+def test_pieces_are_clipped_to_the_mesh():
+    mesh = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    inflated = trimesh.creation.box(bounds=[[-0.02, 0, -0.03], [1, 1, 1]])
+    pieces, reach = clip_to_mesh(_place(mesh), [(inflated.vertices, inflated.faces)])
+    assert reach == pytest.approx(0.03)
+    v = pieces[0][0]
+    assert v.min(axis=0) == pytest.approx([0, 0, 0]) and v.max(axis=0) == pytest.approx([1, 1, 1])
+
+
+def test_footing_levels_an_uneven_bottom_and_says_when_none_holds():
+    # a block whose only lowest point is one corner: it would tip over that corner
+    block = trimesh.creation.box(bounds=[[0, 0, 0.02], [0.5, 0.5, 0.5]])
+    spike = trimesh.creation.box(bounds=[[0, 0, 0], [0.03, 0.03, 0.02]])
+    mesh = trimesh.util.concatenate([block, spike])
+    place = _place(mesh)
+    pieces = [(block.vertices, block.faces), (spike.vertices, spike.faces)]
+    piece, entry = footing(place, pieces)
+    assert piece is not None and entry["support_margin_before_m"] < 0 < entry["support_margin_after_m"]
+    assert piece[0][:, 2].min() == pytest.approx(0.0) and piece[0][:, :2].max() == pytest.approx(0.5)
+    flat = trimesh.creation.box(bounds=[[0, 0, 0], [0.5, 0.5, 0.5]])
+    assert footing(_place(flat), [(flat.vertices, flat.faces)]) == (None, None)
+    # a lamp whose heavy head overhangs its small foot: no band holds its centre, none is added
+    foot = trimesh.creation.box(bounds=[[0, 0, 0], [0.05, 0.05, 0.3]])
+    head = trimesh.creation.box(bounds=[[0.3, 0, 0.3], [0.8, 0.5, 0.6]])
+    lamp = trimesh.util.concatenate([foot, head])
+    piece, entry = footing(_place(lamp), [(foot.vertices, foot.faces), (head.vertices, head.faces)])
+    assert piece is None and entry["band_m"] is None
