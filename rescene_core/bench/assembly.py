@@ -356,6 +356,8 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
                         }
                         for stage in STAGES
                     }
+        if rows:
+            summary[registration_key(name, "fused")]["physics"] = physics_summary(rows)
     return {
         "summary": summary,
         "registration_scenes": registration,
@@ -487,6 +489,79 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
         "exact_shapes": {
             name: _registration_stages(exact, g, shell, {i: gt_centre[i] for i in exact}) for name, g in graphs.items()
         },
+        "physics": registration_physics(
+            objects, fused_graph, shell, work_dir / "sim" / f"{preset}_seed{seed}", work_dir
+        ),
+    }
+
+
+def registration_physics(
+    objects: dict, graph: SceneGraph, shell: RoomShell, run_dir: Path, work_dir: Path
+) -> dict[str, Any]:
+    """The physics check on the full-stage layout (the generated assets, ``graph``): the layout with its
+    completions exported as a scene under ``run_dir`` (MJCF, USD; CoACD results cached on the mesh hash
+    under WORK/convex_cache) and ``rescene_core.sim.simcheck_run`` on it (2 s under gravity)."""
+    import shutil
+
+    from rescene_core.export import ExportConfig, ExportObject, export_scene
+    from rescene_core.paths import RunPaths
+    from rescene_core.sim import SimcheckConfig, simcheck_run
+
+    started = time.perf_counter()
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    attached = time.perf_counter()
+    completions = layout.completions()
+    export_objects = [
+        ExportObject(
+            int(i),
+            o.label,
+            o.vertices,
+            o.faces,
+            layout.world_from_asset[i],
+            o.world_from_asset,
+            tuple(completions.get(i, ())),
+        )
+        for i, o in sorted(objects.items())
+        if i in layout.world_from_asset
+    ]
+    shutil.rmtree(run_dir, ignore_errors=True)
+    config = ExportConfig(decomposition_cache=str(work_dir / "convex_cache"))
+    export_scene(RunPaths(run_dir).scene, export_objects, shell, graph, layout.missing, config)
+    exported = time.perf_counter()
+    check = simcheck_run(run_dir, SimcheckConfig())
+    s = check.summary
+    return {
+        "run_dir": str(run_dir),
+        "free": s["free"],
+        "stable": s["stable"],
+        "stable_fraction": s["stable_fraction"],
+        "penetration_t0_max": s["penetration_t0_max"],
+        "fell_through": s["fell_through"],
+        "escaped": s["escaped"],
+        "unstable": [o.node for o in check.objects if o.kind == "free" and not o.stable],
+        "completions": sum(len(c) for c in completions.values()),
+        "seconds": {
+            "attach": round(attached - started, 2),
+            "export": round(exported - attached, 2),
+            "simcheck": round(time.perf_counter() - exported, 2),
+        },
+    }
+
+
+def physics_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The physics check over scenes (``registration_physics`` of each): stable fraction over all free
+    objects, the deepest t=0 penetration, fallen and escaped objects, seconds added per scene."""
+    done = [r["physics"] for r in rows if "physics" in r]
+    free = sum(p["free"] for p in done)
+    return {
+        "scenes": len(done),
+        "free": free,
+        "stable_fraction": round(sum(p["stable"] for p in done) / free, 4) if free else None,
+        "per_scene": [p["stable_fraction"] for p in done],
+        "penetration_t0_max": max((p["penetration_t0_max"] for p in done), default=None),
+        "fell_through": sum(p["fell_through"] for p in done),
+        "escaped": sum(p["escaped"] for p in done),
+        "seconds_per_scene": round(float(np.mean([sum(p["seconds"].values()) for p in done])), 1) if done else None,
     }
 
 
@@ -548,6 +623,13 @@ def table(result: dict[str, Any]) -> str:
             row = stages[stage]
             cells = " ".join(f"{'-' if row[k] is None else format(row[k], '.4f'):>13}" for k in METRICS)
             lines.append(f"{stage:<10} {cells}")
+        if (p := stages.get("physics")) and p["stable_fraction"] is not None:
+            pen = "-" if p["penetration_t0_max"] is None else f"{p['penetration_t0_max'] * 1000:.1f} mm"
+            lines.append(
+                f"physics (full stage, 2 s): stable {p['stable_fraction']:.3f} of {p['free']} free objects "
+                f"(per scene {p['per_scene']}), t=0 penetration max {pen}, fell {p['fell_through']}, "
+                f"escaped {p['escaped']}, {p['seconds_per_scene']} s per scene"
+            )
     s = result["scaling"]
     lines.append(f"scaling: 20 objects {s['20']:.3f} s, 80 objects {s['80']:.3f} s, ratio {s['ratio_80_over_20']:.2f}")
     for key, why in result["not_run"].items():
