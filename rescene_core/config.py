@@ -507,6 +507,13 @@ class AttachmentConfig(_Section):
     """Non-wall depenetration step (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
     wall_tangent_step: float = 0.02
     """Wall-tangent depenetration step (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
+    depenetration_max_fit_drop: float | None = 0.10
+    """Generated assets with observed points: a depenetration push may lower the share of the object's
+    points on its mesh box's surface (``evidence.surface_fit``) by at most this much below the share at its
+    registered pose; a longer push is cut to the longest that keeps to it, and from then on the object's
+    partners take the whole separation (a generated table's filled space between its legs would otherwise
+    push a chair 0.2 m away from where it was seen). None: pushes are not bounded.
+    Default: the project's choice."""
     near_wall_snap: bool = True
     """Run the near-wall snap refinement.
     Default: the paper's (Appendix 'Attachment and Layout Refinement': part of the default pipeline)."""

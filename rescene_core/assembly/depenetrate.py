@@ -13,8 +13,12 @@ moves at most ``depenetration_step`` m, a wall-mounted one at most ``wall_tangen
 would take the footprint out of the room is cut back into it; a mover that a wall stops that way (less than
 half of its push left) is blocked, and from then on its partners take the whole separation, so a
 nightstand jammed between a bed and a wall makes the bed move instead of shuttling in place. Movers take
-their descendants along. At most ``depenetration_iterations`` iterations; stops early when nothing
-collides.
+their descendants along. A generated mover with observed points takes no more of a push than keeps its
+mesh box's surface on its points within ``depenetration_max_fit_drop`` of its registered share
+(``evidence.surface_fit``)
+(``bounded_push``); held there, it is blocked like a mover a wall stopped, and a pair whose objects are both
+held keeps its overlap (a completion error, not a placement one). At most ``depenetration_iterations``
+iterations; stops early when nothing collides.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from numpy.typing import NDArray
 from shapely.geometry import MultiPoint, Polygon
 
 from rescene_core.assembly.collision import CollisionWorld
-from rescene_core.assembly.evidence import containment_footprint
+from rescene_core.assembly.evidence import containment_footprint, surface_fit
 from rescene_core.assembly.refine import containment_region, is_outside
 from rescene_core.assembly.room import fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -108,6 +112,13 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                 continue
             if length > cap:
                 move = move * cap / length
+            kept = bounded_push(state, i, move)
+            if kept < 1.0:
+                blocked.add(i)  # its points hold it: the partners take the separation from now on
+                move = move * kept
+                if kept <= 0.0:
+                    state.log(i, stage, "held by its points", iteration=iteration, partners=partners[i])
+                    continue
             was_outside = is_outside(state, i)
             state.move(
                 i, translation(move), stage, "contact-reverse displacement", iteration=iteration, partners=partners[i]
@@ -120,6 +131,33 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                         blocked.add(i)
     pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)
     return len(pairs)
+
+
+PUSH_SEARCH_STEPS = 6
+"""Bisection steps of the longest push an object's points allow (1/64 of the push)."""
+
+
+def bounded_push(state: LayoutState, i: InstanceId, move: NDArray) -> float:
+    """Fraction (0 to 1) of the world translation ``move`` [3] object i may take: 1 unless it is a generated
+    asset whose points the push would leave behind (``depenetration_max_fit_drop``), else the longest
+    fraction that keeps to the bound (0 when even the current pose is beyond it)."""
+    bound = state.config.depenetration_max_fit_drop
+    obj = state.objects[i]
+    if bound is None or obj.exact_shape or obj.points is None or len(obj.points) == 0:
+        return 1.0
+    registered = surface_fit(obj, obj.world_from_asset) or 0.0
+    floor = min(registered - bound, surface_fit(obj, state.pose(i)) or 0.0)
+
+    def allowed(fraction: float) -> bool:
+        return (surface_fit(obj, translation(fraction * move) @ state.pose(i)) or 0.0) >= floor
+
+    if allowed(1.0):
+        return 1.0
+    lo, hi = 0.0, 1.0
+    for _ in range(PUSH_SEARCH_STEPS):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if allowed(mid) else (lo, mid)
+    return lo
 
 
 def _separation(state: LayoutState, mover: InstanceId, this: InstanceId, other: InstanceId) -> NDArray[np.float64]:

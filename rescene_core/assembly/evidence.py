@@ -180,6 +180,23 @@ def points_fit(obj, world_from_asset: NDArray) -> float | None:
     return float(np.mean(np.linalg.norm(outside, axis=1) * scale_of(pose) <= POINTS_FIT_MARGIN))
 
 
+def surface_fit(obj, world_from_asset: NDArray) -> float | None:
+    """Share of ``obj.points`` within POINTS_FIT_MARGIN of the surface of the mesh's bounding box at
+    ``world_from_asset`` [4, 4], inside or outside; None without points. Unlike ``points_fit`` it drops when
+    a move buries the seen surface inside the box as well as when it leaves it outside (a push towards the
+    camera that saw the object)."""
+    pts = obj.points
+    if pts is None or len(pts) == 0:
+        return None
+    pose = np.asarray(world_from_asset, dtype=np.float64)
+    local = apply(inverse(pose), np.asarray(pts, dtype=np.float64))
+    lo, hi = obj.vertices.min(axis=0), obj.vertices.max(axis=0)
+    outside = np.linalg.norm(np.maximum(np.maximum(lo - local, local - hi), 0.0), axis=1)
+    inside = np.minimum(local - lo, hi - local).min(axis=1)  # depth below the nearest face (< 0: outside)
+    depth = np.where(inside > 0.0, inside, outside)
+    return float(np.mean(depth * scale_of(pose) <= POINTS_FIT_MARGIN))
+
+
 def evidence_refuses(state: LayoutState, i: InstanceId, new_pose: NDArray) -> str | None:
     """Why moving generated object i to ``new_pose`` contradicts its observed points (None: it does not)."""
     obj = state.objects[i]

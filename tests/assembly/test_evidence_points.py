@@ -148,3 +148,28 @@ def test_a_slab_seen_on_the_floor_is_snapped_down():
     low = replace(table, points=top - [0.0, 0.0, 0.72])
     layout = attach({InstanceId(1): low}, graph, rect_room(), AttachmentConfig())
     assert low.world_vertices(layout.world_from_asset[InstanceId(1)])[:, 2].min() < 0.02
+
+
+def test_a_push_is_bounded_by_the_points_on_the_movers_surface():
+    # a chair tucked 0.25 m under a generated table whose completion filled the space between its legs
+    rng = np.random.default_rng(4)
+    front = np.c_[rng.uniform(1.3, 1.7, 600), np.full(600, 1.5) + rng.normal(0, 0.003, 600), rng.uniform(0, 0.9, 600)]
+    chair = replace(box_object(1, "chair", (0.4, 0.45, 0.9), placed(1.5, 1.725), exact_shape=False), points=front)
+    table_top = np.c_[rng.uniform(1.0, 2.0, 600), rng.uniform(1.6, 2.4, 600), rng.uniform(0.74, 0.75, 600)]
+    table = replace(box_object(2, "table", (1.0, 0.8, 0.75), placed(1.5, 2.0), exact_shape=False), points=table_top)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0),
+        )
+    )
+    objects = {InstanceId(1): chair, InstanceId(2): table}
+    cfg = AttachmentConfig(near_wall_snap=False, dual_attachment=False)
+    bounded = attach(objects, graph, rect_room(), cfg)
+    moved = np.linalg.norm(bounded.world_from_asset[InstanceId(1)][:2, 3] - chair.world_from_asset[:2, 3])
+    assert moved < 0.05  # held by the points on its front: at most the surface margin
+    held = [op for op in bounded.operations if op["rule"] == "held by its points"]
+    assert held
+    free = attach(objects, graph, rect_room(), cfg.model_copy(update={"depenetration_max_fit_drop": None}))
+    gone = np.linalg.norm(free.world_from_asset[InstanceId(1)][:2, 3] - chair.world_from_asset[:2, 3])
+    assert gone > 0.1  # unbounded, the pushes carry it away from where it was seen
