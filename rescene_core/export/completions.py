@@ -4,9 +4,10 @@ All pieces here are in the object's body frame: the asset frame scaled by the po
 and translated by the pose's rotation and translation (rescene_core/export/mjcf.py). Every change is listed
 in ``scene/export_report.json`` under the object.
 
-* **Clipping.** A CoACD or hull piece is cut to the mesh's bounding box (asset axes) and to the level of the
-  mesh's lowest point: a decomposition never reaches past the mesh it approximates (CoACD on a simplified
-  mesh reached 2 cm below a lamp's foot).
+* **Clipping.** A CoACD or hull piece is cut to the mesh's extent along its asset axes, the world's up and
+  down and 24 horizontal world directions: a decomposition never reaches past the mesh it approximates in
+  those directions (CoACD on a simplified mesh reached 2 cm below a lamp's foot and 14 mm into a
+  neighbour's side).
 * **Completions** (``ExportObject.completions``, found by attachment in the object's observed points): a
   ``support plane`` becomes a board ``BOARD_THICKNESS`` thick below the plane
   (``geometry.completion.completion_solid``), a ``base`` the convex hull of its points. Collision only, no
@@ -70,6 +71,8 @@ FOOTING_MARGIN = 0.01
 """The centre of mass must be this far (m) inside the polygon an object stands on."""
 FOOTING_BANDS = (0.02, 0.05, 0.10, 0.15, 0.25)
 """Heights of the footing's band, as fractions of the object's height (the first that holds is used)."""
+CLIP_DIRECTIONS = 24
+"""Horizontal world directions (every 15 deg) along which pieces are cut to the mesh's extent."""
 FOOTING_MIN_BAND = 0.01
 """Smallest band of a footing (m)."""
 WORLD_UP = np.array([0.0, 0.0, 1.0])
@@ -367,13 +370,16 @@ def seat_children(
 
 
 def clip_to_mesh(place: Placement, pieces: list[Piece]) -> tuple[list[Piece], float]:
-    """Pieces cut to the mesh's bounding box (body frame) and to the level of its lowest point (world): a
-    decomposition's piece never reaches past the mesh it approximates. Returns the pieces and the largest
-    distance (m) a piece reached past them."""
-    lo, hi = place.vertices.min(axis=0), place.vertices.max(axis=0)
-    down = place.rotation.T @ -WORLD_UP
-    bottom = place.vertices[np.argmax(place.vertices @ down)]
-    planes = [(np.eye(3)[a], lo) for a in range(3)] + [(-np.eye(3)[a], hi) for a in range(3)] + [(-down, bottom)]
+    """Pieces cut to the mesh's extent along the asset axes, the world's up and down and ``CLIP_DIRECTIONS``
+    horizontal world directions (a discrete oriented polytope of the mesh): a decomposition's piece never
+    reaches past the mesh it approximates in those directions. Returns the pieces and the largest distance
+    (m) a piece reached past them."""
+    angles = np.arange(CLIP_DIRECTIONS) * 2 * np.pi / CLIP_DIRECTIONS
+    world_dirs = np.vstack([np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)], [[0, 0, 1.0], [0, 0, -1.0]]])
+    dirs = np.vstack([np.eye(3), -np.eye(3), world_dirs @ place.rotation])  # body frame
+    reach_of = place.vertices @ dirs.T
+    far = place.vertices[np.argmax(reach_of, axis=0)]
+    planes = [(-n, p) for n, p in zip(dirs, far, strict=True)]  # keep n . x <= n . p
     out, reach = [], 0.0
     for piece in pieces:
         v = piece[0]
