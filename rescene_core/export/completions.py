@@ -6,8 +6,8 @@ in ``scene/export_report.json`` under the object.
 
 * **Clipping.** A CoACD or hull piece is cut to the mesh's extent along its asset axes, the world's up and
   down and 24 horizontal world directions: a decomposition never reaches past the mesh it approximates in
-  those directions (CoACD on a simplified mesh reached 2 cm below a lamp's foot and 14 mm into a
-  neighbour's side).
+  those directions. (CoACD's excess on the benchmark scenes lies inside that extent, where a piece fills a
+  concavity: the seats below handle the part of it that matters, under a child.)
 * **Completions** (``ExportObject.completions``, found by attachment in the object's observed points): a
   ``support plane`` becomes a board ``BOARD_THICKNESS`` thick below the plane
   (``geometry.completion.completion_solid``), a ``base`` the convex hull of its points. Collision only, no
