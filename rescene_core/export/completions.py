@@ -15,9 +15,10 @@ in ``scene/export_report.json`` under the object.
 * **Hollow parents.** A generated parent with a support plane inside its mesh (more than ``INSIDE_MARGIN``
   below its top) and a child standing in it would push the child out: its solid pieces fill the shelf's
   compartments. Its pieces become a shell of its asset-frame bounding box (bottom, top and side panels
-  ``PANEL_THICKNESS`` thick, one vertical side open) plus the boards. The open side: the side facing away
-  from a wall that the opposite side backs onto (within ``BACK_WALL_MAX``), else the side facing the floor
-  polygon's centre (into the room), else (no room) the side nearest the children's centre.
+  ``PANEL_THICKNESS`` thick, one vertical side open) plus the boards. The open side: the side opposite the
+  one that backs onto a wall (faces it, within ``BACK_WALL_MAX`` of its plane and its segment), else the
+  side facing the floor polygon's centre (into the room), else (no room) the side nearest the children's
+  centre. A hollow parent's seats are not cut: its boards are at its children's feet already.
 * **Seats.** A convex piece fills the concavities of the part it covers (CoACD at threshold 0.05 fills
   dips of centimetres), so a child the layout put on its parent's mesh can start inside its parent's
   pieces. When the child's bottom is on the mesh (the parent's mesh rises less than ``SEAT_MESH_TOLERANCE``
@@ -57,7 +58,8 @@ PANEL_THICKNESS = 0.02
 INSIDE_MARGIN = 0.05
 """A support plane more than this (m) below the mesh's top is inside the mesh (a shelf, not the top)."""
 BACK_WALL_MAX = 0.30
-"""A side of a hollow parent within this distance (m) of a wall it faces (within 30 deg) backs onto it."""
+"""A side of a hollow parent within this distance (m) of a wall it faces (within 30 deg), in front of the
+wall's segment (up to this far past its ends), backs onto it."""
 UPRIGHT_COS = float(np.cos(np.radians(10.0)))
 """A hollow shell needs an asset axis within 10 deg of the world's up."""
 SEAT_MESH_TOLERANCE = 0.02
@@ -226,7 +228,12 @@ def hollow_shell(
                 if float(n @ -wn) < np.cos(np.radians(30.0)):
                     continue
                 gap = float(p @ wn + wall.plane.offset)
-                if gap < BACK_WALL_MAX and (best is None or gap < best[0]):
+                (x0, y0), (x1, y1) = wall.segment
+                along = np.array([x1 - x0, y1 - y0])
+                length = float(np.linalg.norm(along))
+                at = float((p[:2] - np.array([x0, y0])) @ along / max(length, 1e-9))
+                on_segment = -BACK_WALL_MAX <= at <= length + BACK_WALL_MAX
+                if on_segment and -BACK_WALL_MAX < gap < BACK_WALL_MAX and (best is None or abs(gap) < abs(best[0])):
                     best = (gap, (a, -s), wall.id)
         if best is not None:
             open_side = best[1]
@@ -490,7 +497,7 @@ def edit_colliders(
         edits[name].completions = entries
     for obj in objects:
         kids = [by_instance[c] for c in _children(obj.instance, graph) if c in by_instance]
-        if not kids:
+        if not kids or obj.node_name in hollow:  # a shell's boards are at its children's feet already
             continue
         name = obj.node_name
         pieces[name], edits[name].seats = seat_children(

@@ -218,3 +218,21 @@ def test_footing_levels_an_uneven_bottom_and_says_when_none_holds():
     lamp = trimesh.util.concatenate([foot, head])
     piece, entry = footing(_place(lamp), [(foot.vertices, foot.faces), (head.vertices, head.faces)])
     assert piece is None and entry["band_m"] is None
+
+
+def test_open_side_needs_a_wall_behind_it_else_faces_the_room():
+    from rescene_core.export.completions import hollow_shell, placement
+
+    (shelf, book), _ = shelf_scene(with_boards=True)
+    far_wall = RoomShell(
+        floor=SHELL.floor,
+        walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((5.0, -2.0), (9.0, -2.0))),),  # its plane, not its segment
+        floor_polygon=SHELL.floor_polygon,
+        ceiling_height=2.5,
+    )
+    _, entry = hollow_shell(shelf, placement(shelf), [placement(book)], far_wall)
+    assert "into the room" in entry["reason"] and entry["open_side_world"] == pytest.approx([0, 1, 0], abs=1e-6)
+    _, entry = hollow_shell(shelf, placement(shelf), [placement(book)], SHELL)
+    assert "wall 0" in entry["reason"]
+    # no child inside: not hollow
+    assert hollow_shell(shelf, placement(shelf), [], SHELL) is None
