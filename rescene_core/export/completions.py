@@ -140,6 +140,8 @@ def completion_pieces(obj: ExportObject, place: Placement) -> tuple[list[Piece],
     reported and left out)."""
     pieces, entries = [], []
     for c in obj.completions:
+        if c.kind not in (CompletionKind.SUPPORT_PLANE, CompletionKind.BASE):
+            continue  # applied to the mesh itself (a cut), not a collider of its own
         solid = completion_solid(c, obj.world_from_asset, BOARD_THICKNESS)
         hull = _hull(solid * place.scale)
         entry: dict[str, Any] = {
