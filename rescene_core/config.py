@@ -570,6 +570,10 @@ class AttachmentConfig(_Section):
     after the confidence-scaled update; below it the contact is scaled by omega like the rest (the paper's
     low-confidence threshold).
     Default: the paper's low-confidence threshold (Appendix 'Multi-Frame Fusion Details'), applied here by the project."""
+    trim_completions: bool = True
+    """Cut a generated asset's mesh where it reaches through the floor or a wall beyond its observed points
+    (``assembly/trim.py``), instead of moving the whole object off its points to repair the crossing.
+    Default: the project's choice."""
     floor_trust_min_confidence: float | None = 0.30
     """A ``rests-on floor`` edge below ``contact_closure_min_confidence`` but at least this confident is
     trusted in full (its contact closed, a base added where the mesh lacks its lower part) when no other

@@ -25,7 +25,7 @@ from rescene_core.capture import open_capture
 from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.config import RunConfig
 from rescene_core.evaluation import evaluate_run
-from rescene_core.export import ExportConfig, ExportObject, export_scene
+from rescene_core.export import ExportConfig, export_scene, placed_object
 from rescene_core.hierview import select_keyframes, select_views
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, RoomShell, SceneGraph, Stage
@@ -117,7 +117,7 @@ def run_pipeline(
     layout = timed(Stage.ATTACHMENT, attach, objects, graph, shell, config.attachment) if objects else None
     completions = layout.completions() if layout else {}
     export_objects = [
-        ExportObject(
+        placed_object(
             int(i),
             o.label,
             o.vertices,

@@ -427,6 +427,10 @@ class CompletionKind(enum.StrEnum):
     BASE = "base"
     """The vertices [k, 3] of a convex solid between the floor and the mesh's lowest part (a leg, a plinth
     the generated mesh lacks)."""
+    CUT = "cut"
+    """A plane [2, 3] (a point on it and that point plus the normal, asset frame) the mesh is cut at,
+    keeping the side the normal points to: a completion reaching through the floor or a wall the capture
+    saw, where none of the object's points are."""
 
 
 @dataclass(frozen=True)
@@ -435,7 +439,8 @@ class Completion:
     from its relation when the points show nothing), so that contacts and colliders agree on it.
 
     points_asset: float64 [k, 3], asset frame (apply the object's world_from_asset to place it): the
-      polygon of a support plane, or the vertices of a base (its convex hull is the solid).
+      polygon of a support plane, the vertices of a base (its convex hull is the solid), or a cut plane's
+      point and that point plus its normal.
     source: what showed the geometry (a sentence for the layout and the export report).
     """
 
@@ -501,12 +506,12 @@ class Layout:
 
 
 def completion_of_operation(op: dict[str, Any]) -> Completion | None:
-    """The Completion a layout operation records (rule ``support plane``: ``polygon_asset``; rule ``base``:
-    ``points_asset``), or None for any other operation."""
+    """The Completion a layout operation records (rule ``support plane``: ``polygon_asset``; rules ``base``
+    and ``cut``: ``points_asset``), or None for any other operation."""
     rule = op.get("rule")
     if rule == CompletionKind.SUPPORT_PLANE.value:
         points = op["polygon_asset"]
-    elif rule == CompletionKind.BASE.value:
+    elif rule in (CompletionKind.BASE.value, CompletionKind.CUT.value):
         points = op["points_asset"]
     else:
         return None

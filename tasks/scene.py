@@ -19,7 +19,7 @@ import numpy as np
 from rescene_core.capture import open_capture
 from rescene_core.config import AttachmentConfig, KeyFrameConfig, SceneGraphConfig, ShellConfig, SimcheckConfig
 from rescene_core.evaluation import evaluate_run
-from rescene_core.export import ExportConfig, ExportObject, export_scene
+from rescene_core.export import ExportConfig, export_scene, placed_object
 from rescene_core.io import read_json, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
@@ -233,7 +233,7 @@ def export(
         layout_rec = Layout.from_json(read_json(run.root / layout.path))
         completions = layout_rec.completions()
         objects = [
-            ExportObject(
+            placed_object(
                 o.instance,
                 o.label,
                 o.vertices,

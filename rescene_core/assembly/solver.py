@@ -41,6 +41,7 @@ from rescene_core.assembly.refine import (
 )
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.trim import room_cuts, trimmed
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
@@ -136,7 +137,8 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
 def record_completions(state: LayoutState) -> None:
     """One operation per completion at the final pose, which exporters and metrics read back
     (``Layout.completions``): a ``support plane`` (a horizontal polygon, world and parent-asset frame, its
-    height above the floor, the children standing on it) or a ``base`` (a convex solid's points)."""
+    height above the floor, the children standing on it), a ``base`` (a convex solid's points) or a ``cut``
+    (a plane the generated mesh was cut at before the rules ran, ``trim.room_cuts``)."""
     children: dict[InstanceId, list[int]] = defaultdict(list)
     for op in state.operations:
         if op.details.get("support_plane") and op.branch in (state.branch, "wall-aware", "floor-only"):
@@ -145,6 +147,9 @@ def record_completions(state: LayoutState) -> None:
         pose = state.pose(i)
         for c in completions:
             world = apply(pose, c.points_asset)
+            if c.kind is CompletionKind.CUT:
+                state.log(i, "completions", c.kind.value, points_asset=c.points_asset, source=c.source)
+                continue
             if c.kind is CompletionKind.BASE:
                 state.log(
                     i,
@@ -187,8 +192,13 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
             missing.append(Missing(InstanceId(int(key)), "assembly", "; ".join(problems)))
         else:
             valid[InstanceId(int(key))] = obj
+    cuts = {i: room_cuts(obj, room) for i, obj in valid.items()} if config.trim_completions else {}
+    valid = {i: trimmed(obj, cuts.get(i, [])) for i, obj in valid.items()}
     forest = build_forest(graph, set(valid))
     base = LayoutState(valid, forest, room, config)
+    for i in sorted(cuts):
+        for cut in cuts[i]:
+            base.add_completion(cut)
     base.unfit = find_unfit(base)
     for i in sorted(base.unfit):
         base.log(i, "input", "note", reason="footprint cannot fit inside the room; repairs leave it in place")

@@ -193,6 +193,24 @@ def metric_objects(objects: dict, layout) -> dict:
     return out
 
 
+def visual_objects(objects: dict, layout) -> dict:
+    """``objects`` with the meshes the exported scene shows: cut at the layout's cut planes (a completion
+    through a wall or the floor, ``assembly/trim.py``), nothing added."""
+    from dataclasses import replace
+
+    from rescene_core.geometry.completion import cut_mesh
+    from rescene_core.records import CompletionKind
+
+    out = dict(objects)
+    for i, completions in layout.completions().items():
+        cuts = [c for c in completions if c.kind is CompletionKind.CUT]
+        if cuts:
+            obj = objects[InstanceId(int(i))]
+            vertices, faces = cut_mesh(obj.vertices, obj.faces, cuts)
+            out[InstanceId(int(i))] = replace(obj, vertices=vertices, faces=faces)
+    return out
+
+
 def pose_errors(gt: dict, objects: dict, poses: dict) -> tuple[float, float]:
     """Median bounding-box-centre error (m) and median rotation error (deg) against ground truth."""
     t_err, r_err = [], []
@@ -503,7 +521,7 @@ def registration_physics(
     under WORK/convex_cache) and ``rescene_core.sim.simcheck_run`` on it (2 s under gravity)."""
     import shutil
 
-    from rescene_core.export import ExportConfig, ExportObject, export_scene
+    from rescene_core.export import ExportConfig, export_scene, placed_object
     from rescene_core.paths import RunPaths
     from rescene_core.sim import SimcheckConfig, simcheck_run
 
@@ -512,7 +530,7 @@ def registration_physics(
     attached = time.perf_counter()
     completions = layout.completions()
     export_objects = [
-        ExportObject(
+        placed_object(
             int(i),
             o.label,
             o.vertices,
@@ -578,18 +596,20 @@ def _registration_stages(
     for stage in STAGES:
         if stage == "none":
             poses, seconds, scene_objects = {i: o.world_from_asset for i, o in objects.items()}, 0.0, objects
+            visual = objects
         else:
             start = time.perf_counter()
             layout = attach(objects, graph, shell, AttachmentConfig(stop_after=stage))
             seconds = time.perf_counter() - start
             poses, scene_objects = layout.world_from_asset, metric_objects(objects, layout)
+            visual = visual_objects(objects, layout)
         if poses_out is not None:
             poses_out[stage] = poses
         # contacts as the exported scene has them: with the support planes found in the parents' points
         m = structural_metrics(scene_objects, poses, graph, shell)
         err = []
         for i, c in gt_centre.items():
-            pv = objects[i].world_vertices(poses[i])
+            pv = visual[i].world_vertices(poses[i])  # the exported mesh: cut, without colliders added
             err.append(float(np.linalg.norm(0.5 * (pv.min(0) + pv.max(0)) - c)))
         stages[stage] = {
             **{k: m[k] for k in METRICS if k in m},

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.records import Completion
+from rescene_core.records import Completion, CompletionKind
 
 
 @dataclass(frozen=True)
@@ -18,7 +18,8 @@ class ExportObject:
     world_from_asset: float64 [4, 4] Sim(3), the final (attached) pose.
     registered_world_from_asset: float64 [4, 4], the pose before attachment, when known.
     completions: geometry attachment added from the object's observed points (shelf boards, a base), in
-      the asset frame; the simulation exports add them as colliders.
+      the asset frame; the simulation exports add them as colliders. Cuts are not among them: they are
+      applied to ``vertices`` / ``faces`` already (``placed_object``).
     """
 
     instance: int
@@ -37,3 +38,30 @@ class ExportObject:
 def node_name(instance: int, label: str) -> str:
     """Scene node name of an object: ``obj_<id>_<label>`` (label spaces become underscores)."""
     return f"obj_{int(instance)}_{label.replace(' ', '_')}"
+
+
+def placed_object(
+    instance: int,
+    label: str,
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    world_from_asset: NDArray[np.float64],
+    registered_world_from_asset: NDArray[np.float64] | None,
+    completions: tuple[Completion, ...] | list[Completion] = (),
+) -> ExportObject:
+    """The ExportObject of a placed asset and the completions attachment gave it: the mesh cut at its cut
+    planes (what everyone sees), the other completions carried for the simulation exports."""
+    from rescene_core.geometry.completion import cut_mesh
+
+    cuts = [c for c in completions if c.kind is CompletionKind.CUT]
+    if cuts:
+        vertices, faces = cut_mesh(vertices, faces, cuts)
+    return ExportObject(
+        int(instance),
+        label,
+        np.asarray(vertices, np.float64),
+        np.asarray(faces, np.int64),
+        np.asarray(world_from_asset, np.float64),
+        registered_world_from_asset,
+        tuple(c for c in completions if c.kind is not CompletionKind.CUT),
+    )

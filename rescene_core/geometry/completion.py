@@ -2,7 +2,8 @@
 
 A support plane is a horizontal polygon: as a surface it is two-sided triangles (what contact metrics
 read), as a solid it is the polygon extruded downwards by a board thickness (what a simulator collides
-with). A base is already a solid: the convex hull of its points. Everything is in the object's asset
+with). A base is already a solid: the convex hull of its points. A cut removes the part of the mesh behind
+its plane (``cut_mesh``, capped so a closed mesh stays closed); cuts apply before anything is added. Everything is in the object's asset
 frame; ``world_from_asset`` only tells which way is down and how long a metre is there.
 """
 
@@ -58,13 +59,37 @@ def completion_surface(completion: Completion) -> tuple[NDArray[np.float64], NDA
     return pts, np.vstack([fan, fan[:, ::-1]])
 
 
+def cut_mesh(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], cuts: Iterable[Completion]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The mesh (vertices [v, 3], faces [f, 3], asset frame) with the part behind each cut plane removed,
+    the cut capped when the mesh is closed; a cut that would leave nothing is not applied."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), process=False)
+    for cut in cuts:
+        origin, tip = np.asarray(cut.points_asset, np.float64).reshape(2, 3)
+        normal = tip - origin
+        if not np.linalg.norm(normal) > 0:
+            continue
+        kept = trimesh.intersections.slice_mesh_plane(mesh, normal, origin, cap=mesh.is_watertight)
+        if kept is not None and len(kept.faces):
+            mesh = kept
+    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
 def completed_mesh(
     vertices: NDArray[np.float64], faces: NDArray[np.int64], completions: Iterable[Completion]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """An asset-frame mesh (vertices [v, 3], faces [f, 3]) with the completions' triangles appended."""
+    """An asset-frame mesh (vertices [v, 3], faces [f, 3]): cut at the completions' cut planes, then with the
+    other completions' triangles appended."""
+    completions = list(completions)
+    vertices, faces = cut_mesh(vertices, faces, [c for c in completions if c.kind is CompletionKind.CUT])
     verts, tris = [np.asarray(vertices, np.float64)], [np.asarray(faces, np.int64)]
     count = len(verts[0])
     for completion in completions:
+        if completion.kind is CompletionKind.CUT:
+            continue
         v, f = completion_surface(completion)
         verts.append(v)
         tris.append(f + count)

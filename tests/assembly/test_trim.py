@@ -1,0 +1,75 @@
+"""Cuts of a generated completion that reaches through the floor or a wall beyond the object's points."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import trimesh
+
+from rescene_core.assembly import attach
+from rescene_core.assembly.room import room_from_shell
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.assembly.trim import room_cuts
+from rescene_core.bench.assembly import metric_objects, visual_objects
+from rescene_core.config import AttachmentConfig
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.records import CompletionKind, Edge, InstanceId, Relation, Root, SceneGraph
+
+
+def _desk(depth_m: float, points_back_y: float):
+    """A desk 1.2 x depth x 0.75 against the y = 0 wall of ``rect_room`` with its front face at y = 0.6,
+    seen from the room: points on its front and top down to ``points_back_y``."""
+    rng = np.random.default_rng(0)
+    front = np.c_[rng.uniform(1.4, 2.6, 800), np.full(800, 0.6), rng.uniform(0.0, 0.75, 800)]
+    top = np.c_[rng.uniform(1.4, 2.6, 800), rng.uniform(points_back_y, 0.6, 800), np.full(800, 0.75)]
+    desk = box_object(1, "desk", (1.2, depth_m, 0.75), placed(2.0, 0.6 - depth_m / 2), exact_shape=False)
+    return replace(desk, points=np.vstack([front, top]))
+
+
+def test_a_completion_through_the_wall_is_cut_there_and_the_desk_is_not_moved():
+    desk = _desk(0.8, points_back_y=0.02)  # 0.2 m of completion behind the wall at y = 0
+    room = room_from_shell(rect_room())
+    (cut,) = room_cuts(desk, room)
+    assert cut.kind is CompletionKind.CUT and "wall" in cut.source
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    cfg = AttachmentConfig(near_wall_snap=False)
+    layout = attach({InstanceId(1): desk}, graph, rect_room(), cfg)
+    # nothing moved it off its points: the crossing is gone with the cut
+    np.testing.assert_allclose(layout.world_from_asset[InstanceId(1)], desk.world_from_asset, atol=1e-9)
+    shown = visual_objects({InstanceId(1): desk}, layout)[InstanceId(1)]
+    world = shown.world_vertices(layout.world_from_asset[InstanceId(1)])
+    assert abs(world[:, 1].min()) < 1e-6 and abs(world[:, 1].max() - 0.6) < 1e-6
+    assert trimesh.Trimesh(shown.vertices, shown.faces).is_watertight
+    m = structural_metrics(metric_objects({InstanceId(1): desk}, layout), layout, graph, rect_room())
+    assert m["oob_rate"] == 0.0 and m["floor_contact_pass"] == 1.0
+    # without trimming the rules move the whole desk 0.2 m off its front
+    moved = attach({InstanceId(1): desk}, graph, rect_room(), cfg.model_copy(update={"trim_completions": False}))
+    assert moved.world_from_asset[InstanceId(1)][1, 3] - desk.world_from_asset[1, 3] > 0.19
+
+
+def test_a_sunk_completion_is_cut_at_the_floor_where_its_points_end():
+    rng = np.random.default_rng(1)
+    pts = np.c_[rng.uniform(1.0, 2.8, 900), np.full(900, 2.0), rng.uniform(0.0, 0.85, 900)]
+    sofa = replace(box_object(1, "sofa", (1.8, 0.9, 0.95), placed(1.9, 2.45, -0.07), exact_shape=False), points=pts)
+    (cut,) = room_cuts(sofa, room_from_shell(rect_room()))
+    assert "floor" in cut.source
+    origin, tip = cut.points_asset
+    np.testing.assert_allclose(origin[2] + sofa.world_from_asset[2, 3], 0.0, atol=1e-9)
+    np.testing.assert_allclose(tip - origin, [0, 0, 1], atol=1e-9)
+    # points reaching 3 cm below the floor (a floor plane estimated 3 cm high): the cut follows them
+    low = replace(sofa, points=pts - [0.0, 0.0, 0.03])
+    (cut,) = room_cuts(low, room_from_shell(rect_room()))
+    reach = np.percentile(low.points[:, 2], 1.0)  # the points' reach: their 1st percentile, about -0.02 m
+    assert -0.03 < reach < 0.0
+    np.testing.assert_allclose(cut.points_asset[0][2] + sofa.world_from_asset[2, 3], reach, atol=1e-9)
+
+
+def test_no_cut_for_exact_shapes_small_crossings_or_a_pose_mostly_beyond_the_wall():
+    room = room_from_shell(rect_room())
+    desk = _desk(0.8, points_back_y=0.02)
+    assert room_cuts(replace(desk, exact_shape=True), room) == []
+    assert room_cuts(_desk(0.605, points_back_y=0.02), room) == []  # 5 mm through: within the margin
+    # registered with most of the mesh behind the wall: the pose is wrong, the rules repair it
+    far = replace(desk, world_from_asset=placed(2.0, -0.2))
+    assert room_cuts(far, room) == []
