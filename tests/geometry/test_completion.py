@@ -50,3 +50,15 @@ def test_a_board_solid_is_its_thickness_below_the_plane_in_the_world():
     assert solid.shape == (8, 3)
     np.testing.assert_allclose(np.ptp(world[:, 2]), 0.02, atol=1e-12)
     assert world[4:, 2].max() < world[:4, 2].min()
+
+
+def test_a_cut_keeps_the_side_its_normal_points_to_and_stays_closed():
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    cut = Completion(InstanceId(1), CompletionKind.CUT, np.array([[0.0, 0.0, -0.2], [0.0, 0.0, 0.8]]))
+    v, f = completed_mesh(box.vertices, box.faces, [cut])
+    kept = trimesh.Trimesh(v, f)
+    assert kept.is_watertight
+    np.testing.assert_allclose(kept.volume, 0.7, rtol=1e-9)
+    np.testing.assert_allclose(v[:, 2].min(), -0.2, atol=1e-12)
+    ops = ({"instance": 1, "rule": "cut", "points_asset": cut.points_asset.tolist(), "source": "wall"},)
+    assert Layout({}, ops).completions()[InstanceId(1)][0].kind is CompletionKind.CUT
