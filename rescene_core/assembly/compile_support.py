@@ -180,7 +180,7 @@ def plane_at(
     return SupportLevel(float(room.floor_distance(now).mean()), Polygon(now[:, :2]))
 
 
-INNER_MIN_ABOVE_BOTTOM = 0.05
+INNER_MIN_ABOVE_BOTTOM = 0.02
 """A child's registered bottom must lie at least this far (m) above its generated parent's mesh bottom to
 count as standing on an inner shelf (lower, it stands on the parent's floor board or under it)."""
 INNER_FOOTPRINT_MARGIN = 0.05
