@@ -8,7 +8,9 @@ Details"):
 
 V_k: fraction of the usable frames showing c_k whose answer is (r_k, p_k). G_k, Shell_k: ``priors``.
 Phi_k: ``category``. Candidates: rests-on floor, mounts-on wall, every edge some frame proposed, and every
-object whose upward face supports the child geometrically. The argmax is kept with omega = S; it is
+object whose upward face supports the child geometrically. Missing instances (asset generation or
+registration failed) get no edge but stay candidate parents: a child whose best candidate is one keeps
+that dangling edge, flagged 'parent-missing', rather than a floor or wall edge its evidence contradicts. The argmax is kept with omega = S; it is
 'uncertain' when the top-2 margin < uncertain_margin or S < uncertain_top, and 'low-confidence' below
 low_confidence. Uncertain edges are re-asked with an A/B prompt (backends that support it) and a changed
 answer is kept only if its G is not below the other candidate's by more than ab_geometry_margin. Cycles
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import networkx as nx
@@ -61,6 +63,7 @@ class FusionReport:
     uncertain: list[int] = field(default_factory=list)
     low_confidence: list[int] = field(default_factory=list)
     unobserved: list[int] = field(default_factory=list)
+    parent_missing: list[int] = field(default_factory=list)
     ab: list[dict[str, Any]] = field(default_factory=list)
     cycles_broken: list[dict[str, Any]] = field(default_factory=list)
     frames_used: int = 0
@@ -78,6 +81,7 @@ class FusionReport:
             "uncertain": self.uncertain,
             "low_confidence": self.low_confidence,
             "unobserved": self.unobserved,
+            "parent_missing": self.parent_missing,
             "ab": self.ab,
             "cycles_broken": self.cycles_broken,
             "candidates": {str(k): v for k, v in self.candidates.items()},
@@ -215,6 +219,10 @@ def fuse_with_report(
     labels = {int(i.id): i.label for i in capture.object_instances}
     children = [InstanceId(i) for i in sorted(labels) if i not in missing]
     alive = set(children)
+    # missing instances get no edge, but they are still in the room: a child standing on one keeps that
+    # edge (flag 'parent-missing'), so its evidence is not pushed onto the floor or a wall
+    absent = {InstanceId(i) for i in sorted(missing) if i in labels}
+    parents = alive | absent
 
     seen = {c: 0 for c in children}
     votes: dict[InstanceId, dict[Candidate, int]] = {c: {} for c in children}
@@ -231,13 +239,13 @@ def fuse_with_report(
             if got is None:
                 continue
             rel, parent = got
-            if not isinstance(parent, Root) and (parent not in alive or parent == v.instance):
+            if not isinstance(parent, Root) and (parent not in parents or parent == v.instance):
                 continue
             votes[v.instance][(rel, parent)] = votes[v.instance].get((rel, parent), 0) + 1
 
     geometry: dict[InstanceId, InstanceGeometry] = {}
     if variant == "full":
-        geometry = {c: instance_geometry(capture, c, shell_used, config) for c in children}
+        geometry = {c: instance_geometry(capture, c, shell_used, config) for c in [*children, *sorted(absent)]}
 
     ranked_by_child: dict[InstanceId, list[dict[str, Any]]] = {}
     for c in children:
@@ -323,6 +331,9 @@ def fuse_with_report(
             report.uncertain.append(int(c))
         if not seen[c]:
             flags[c].append("unobserved")
+        if parent in absent:
+            flags[c].append("parent-missing")
+            report.parent_missing.append(int(c))
         wall_id = None
         if parent == Root.WALL and variant == "full":
             wall_id = wall_alignment(geometry[c], shell_used, config)[1]
@@ -335,7 +346,8 @@ def fuse_with_report(
             for r in rows
         ]
     graph = SceneGraph(tuple(edges))
-    problems = graph.check()
+    # an edge to a missing parent dangles by design; every other forest property must hold
+    problems = SceneGraph(tuple(replace(e, parent=Root.FLOOR) if e.parent in absent else e for e in edges)).check()
     if problems:  # cannot happen by construction; fail loudly rather than hand on a broken graph
         raise RuntimeError("fusion produced an invalid scene graph: " + "; ".join(problems))
     report.seconds = time.perf_counter() - start

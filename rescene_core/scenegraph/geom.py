@@ -89,14 +89,21 @@ def wall_fit(points: NDArray, wall: WallPlane) -> tuple[float, float]:
 
 
 def wall_back(points: NDArray, wall: WallPlane) -> float:
-    """Robust distance (m) of an instance's back surface to a wall plane: |the SPAN_QUANTILE quantile of the
-    points' signed distances| (inf when empty). Unlike ``wall_fit``'s count-based extreme it ignores the
-    few stray points an instance's cloud carries (mask edges bled onto the wall, mixed depth at silhouettes,
-    mislabelled pixels far away), which can sit right at a wrong wall or behind the right one; it includes
-    part of the object's thickness (a few cm for things hung on a wall)."""
+    """Robust distance (m) of an instance's back surface to a wall plane, from the points' signed distances
+    d (positive in front): max(0, the SPAN_QUANTILE quantile of d) + max(0, -median of d); inf when empty.
+
+    Unlike ``wall_fit``'s count-based extreme, the quantile ignores the few stray points an instance's
+    cloud carries (mask edges bled onto the wall, mixed depth at silhouettes, mislabelled pixels far away),
+    which can sit right at a wrong wall or behind the right one; it includes part of the object's thickness
+    (a few cm for things hung on a wall). It is one-sided: a thing hung flat on a wall shows its surface a
+    centimetre or two in front of the plane, and depth noise (and the plane's own fit) spreads those points
+    to both sides of it (on the cluttered scenes 10% of a mirror's points lie 3-6 cm behind its wall), so
+    points behind the plane mean the back reaches the wall, not that it is that far from it. Only a bulk
+    (median) behind the plane is a distance: the thing is behind that wall, not on it."""
     if not len(points):
         return float("inf")
-    return float(abs(np.quantile(wall.plane.signed_distance(points), SPAN_QUANTILE)))
+    lo, mid = np.quantile(wall.plane.signed_distance(points), [SPAN_QUANTILE, 0.5])
+    return float(max(0.0, lo) + max(0.0, -mid))
 
 
 def wall_flush(points: NDArray, shell: RoomShell, min_lateral: float = 0.5) -> tuple[WallPlane | None, float, float]:

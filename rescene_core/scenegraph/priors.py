@@ -7,7 +7,8 @@ meshes. Every score is in [0, 1].
   polygon, gap = |height of the lower contact surface above the floor plane|;
 - wall parent: wall alignment = max over walls of exp(-(residual / wall_sigma)^2) x normal agreement x
   lateral fraction, residual = robust distance of the back surface to the wall plane (``geom.wall_back``:
-  the 10% quantile of the points' distances, so stray points do not decide it), normal agreement = how
+  the 10% quantile of the points' distances, so stray points do not decide it, one-sided, so depth noise
+  that spreads a flush picture's points behind the plane is not a gap), normal agreement = how
   well the footprint's minimum-area rectangle lines up with the wall: (1 - e) |cos 2 phi| + e max(0,
   -cos 2 phi), phi the angle between the rectangle's long side and the wall normal, e = 1 - short / long
   side its elongation. A near-square footprint may face any of its four sides to the wall (the first
@@ -18,7 +19,8 @@ meshes. Every score is in [0, 1].
 - object parent: support = exp(-(gap / support_sigma)^2) x the fraction of the child's contact footprint
   above an upward-facing face of the parent at the child's bottom height.
 
-Room-shell prior: floor = touches x inside; wall = (1 - touches) x near a wall; object = (1 - touches)
+Room-shell prior: floor = touches x inside; wall = (1 - touches) x near a wall (the best wall's
+exp(-(residual / wall_sigma)^2) x lateral fraction, with the same back distance); object = (1 - touches)
 x inside, with touches = exp(-(gap / floor_sigma)^2): the structure says whether the child stands on the
 floor, hangs by a wall or is held above the floor by something.
 """
@@ -221,7 +223,7 @@ def shell_prior(child: InstanceGeometry, parent: Parent, shell: RoomShell, confi
     if parent == Root.WALL:
         near = 0.0
         for wall in shell.walls:
-            residual, lateral = wall_fit(child.points, wall)
-            near = max(near, _gauss(residual, config.fusion.wall_sigma) * lateral)
+            lateral = wall_fit(child.points, wall)[1]
+            near = max(near, _gauss(wall_back(child.points, wall), config.fusion.wall_sigma) * lateral)
         return (1.0 - touches) * near
     return (1.0 - touches) * child.inside

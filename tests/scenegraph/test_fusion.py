@@ -66,12 +66,21 @@ def test_cycles_are_broken_and_every_instance_gets_one_parent(room_capture, shel
     assert graph.parent_of()[InstanceId(6)].parent == Root.FLOOR
 
 
-def test_missing_instances_are_left_out_and_not_parents(room_capture, shell, predictions):
-    graph = fuse(predictions, room_capture, shell, SceneGraphConfig(), missing={6})
+def test_missing_instances_get_no_edge_but_their_children_keep_them_as_parent(room_capture, shell, predictions):
+    """The table (6) failed registration: it gets no edge, and the lamp standing on it keeps ``rests-on 6``
+    (flag 'parent-missing'), not a floor or wall edge its evidence contradicts (the solver then leaves the
+    lamp at its registered pose)."""
+    graph, report = fuse_with_report(predictions, room_capture, shell, SceneGraphConfig(), missing={6})
     children = {int(e.child) for e in graph.edges}
     assert 6 not in children and children == {7, 8, 9, 10}
-    assert all(e.parent != InstanceId(6) for e in graph.edges)
-    assert graph.check() == []
+    lamp = graph.parent_of()[InstanceId(7)]
+    assert (lamp.relation, lamp.parent) == (Relation.RESTS_ON, InstanceId(6))
+    assert "parent-missing" in lamp.flags and report.parent_missing == [7]
+    assert lamp.confidence > 0.8 and lamp.scores["V"] > 0.5
+    assert all("parent-missing" not in e.flags for e in graph.edges if e.child != InstanceId(7))
+    # the only thing SceneGraph.check() reports is that dangling edge
+    assert graph.check() == ["instance 7 has parent 6, which has no edge to a root"]
+    assert report.to_json()["parent_missing"] == [7]
 
 
 def test_unobserved_and_uncertain_flags(room_capture, shell):
