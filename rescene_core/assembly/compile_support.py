@@ -155,19 +155,18 @@ def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId)
 def plane_at(
     state: LayoutState, parent: InstanceId, child: InstanceId, height: float, source: str
 ) -> SupportLevel | None:
-    """A support plane of ``parent`` at ``height`` (m above the floor, found at the registered poses) under
-    ``child``, carried to the parent's current pose and recorded as a completion (asset frame); None when
+    """A support plane of ``parent`` at ``height`` (m above the floor, where the capture saw it) under
+    ``child``, spanning the parent's current footprint, recorded as a completion (asset frame); None when
     the room has no usable up direction or the parent has no footprint."""
-    pobj, cobj, room = state.objects[parent], state.objects[child], state.room
+    room = state.room
     if abs(room.up[2]) < 1e-9:
         return None
-    # the height found at the registered pose goes with the parent to its current pose; the plane spans the
-    # parent's current footprint (shrunk by 1 cm, so it never reaches beyond the mesh), kept in its asset frame
-    centre = footprint(cobj.world_vertices()).centroid
-    mark = np.array([[centre.x, centre.y, 0.0]])
-    mark[0, 2] = (height - room.floor_distance(mark)[0]) / float(room.up[2])
+    # the height is where the capture saw the board (or the child's bottom): evidence in the world, which a
+    # vertical correction of the parent's mesh (a floor snap of a mesh registered 7 cm high) does not move;
+    # the plane spans the parent's current footprint (shrunk by 1 cm, so it never reaches beyond the mesh)
+    # and is kept in the parent's asset frame, so later repairs carry it with the parent
     now_pose = state.pose(parent)
-    now_height = float(room.floor_distance(apply(now_pose @ inverse(pobj.world_from_asset), mark))[0])
+    now_height = height
     shrunk = footprint(state.vertices(parent)).buffer(-0.01)
     if not isinstance(shrunk, Polygon) or shrunk.is_empty:
         return None

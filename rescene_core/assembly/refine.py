@@ -198,8 +198,10 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
     A repair that turns or moves a parent takes its children along (a dining table squared to a wall by
     19 deg swings a monitor near its edge by ~0.4 m), but a child was registered on its own points:
     ``compile_support`` puts it back over its registered centre (or the nearest point of the face) at the
-    face's height. Parents before children."""
+    face's height, unless that would leave its observed points behind (``evidence.evidence_refuses``).
+    Parents before children."""
     from rescene_core.assembly.compile_support import compile_support
+    from rescene_core.assembly.evidence import evidence_refuses
 
     for child, edge in state.forest.edges.items():
         if isinstance(edge.parent, Root) or edge.relation is not Relation.RESTS_ON:
@@ -208,5 +210,9 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
             continue
         correction, info = compile_support(state, child, edge)
         if correction is None or np.allclose(correction, np.eye(4), atol=1e-6):
+            continue
+        refused = evidence_refuses(state, child, correction @ state.pose(child))
+        if refused is not None:  # the relational layer refused this child's face for the same reason
+            state.skip(child, stage, refused)
             continue
         state.move(child, correction, stage, "back on parent's face", parent=int(edge.parent))
