@@ -28,7 +28,8 @@ in ``scene/export_report.json`` under the object.
 * **Footings.** A free object resting on something stands on its lowest points. A generated mesh's bottom
   is its generator's invention, often uneven: when the centre of mass (of its collision pieces) is not
   over the polygon of its points within ``CONTACT_BAND`` of the lowest one (shrunk by ``FOOTING_MARGIN``),
-  it would rock or tip at once. It then gets a footing: the hull of its vertices in the lowest band of its
+  it would rock or tip at once (the centre counted with everything resting on it, at their masses: a table
+  carries the monitor at its corner). It then gets a footing: the hull of its vertices in the lowest band of its
   height and of the same vertices on the level of its lowest point, with the band grown (``FOOTING_BANDS``
   of the height) until the centre is over the footing's bottom. When no band holds it, nothing is added
   and the report says so.
@@ -67,7 +68,7 @@ SEAT_MESH_TOLERANCE = 0.02
 contact tolerance of the structural metrics) is inside the mesh: its parent's pieces are not cut."""
 SEAT_FOOT = 0.02
 """A child's foot: its vertices within this height (m) of its lowest one; the seat is cut under them."""
-CONTACT_BAND = 0.003
+CONTACT_BAND = 0.001
 """Collider points within this height (m) of the lowest one are the points an object stands on."""
 FOOTING_MARGIN = 0.01
 """The centre of mass must be this far (m) inside the polygon an object stands on."""
@@ -428,13 +429,20 @@ def _support_margin(points_xy: NDArray, centre_xy: NDArray) -> float:
     return float(hull.exterior.distance(p)) if hull.contains(p) else -float(hull.exterior.distance(p))
 
 
-def footing(place: Placement, pieces: list[Piece]) -> tuple[Piece | None, dict[str, Any] | None]:
+def footing(
+    place: Placement, pieces: list[Piece], mass: float = 1.0, load: Iterable[tuple[float, NDArray]] = ()
+) -> tuple[Piece | None, dict[str, Any] | None]:
     """A footing piece (body frame) for an object that would rock on its lowest points, and its report
-    entry; (None, None) when it stands as it is."""
+    entry; (None, None) when it stands as it is. ``load``: (mass kg, world centre of mass) of what rests
+    on the object (its children, theirs, ...), whose weight it carries; ``mass``: its own (kg)."""
     com = centre_of_mass(pieces)
     if com is None:
         return None, None
-    com_w = place.world(com[None])[0]
+    masses, centres = [mass], [place.world(com[None])[0]]
+    for m, c in load:
+        masses.append(m)
+        centres.append(np.asarray(c, np.float64))
+    com_w = np.average(np.asarray(centres), axis=0, weights=np.asarray(masses))
     cw = place.world(np.vstack([v for v, _ in pieces]))
     zmin = float(cw[:, 2].min())
     margin = _support_margin(cw[cw[:, 2] <= zmin + CONTACT_BAND, :2], com_w[:2])
@@ -460,8 +468,8 @@ def footing(place: Placement, pieces: list[Piece]) -> tuple[Piece | None, dict[s
             "band_fraction_of_height": frac,
             "support_margin_before_m": round(margin, 4),
             "support_margin_after_m": round(held, 4),
-            "why": "its centre of mass is not over the points it stands on (an uneven generated bottom): the "
-            "hull of its lowest band, down to its lowest point, is added",
+            "why": "its centre of mass (with what rests on it) is not over the points it stands on (an uneven "
+            "generated bottom): the hull of its lowest band, down to its lowest point, is added",
         }
         return piece, entry
     return None, {
@@ -478,10 +486,12 @@ def edit_colliders(
     graph: SceneGraph | None,
     kinds: dict[str, str],
     methods: dict[str, str],
+    masses: dict[str, float] | None = None,
 ) -> dict[str, ColliderEdits]:
     """Apply the edits of the module doc to ``pieces`` (node -> body-frame decomposition pieces, changed in
     place): clipping to the mesh (CoACD and hull pieces; ``methods``: node -> decomposition method), hollow
-    shells (computed by ``find_hollow``), completions, seats, footings, in that order."""
+    shells (computed by ``find_hollow``), completions, seats, footings, in that order. ``masses``: node ->
+    kg, for the load a footing carries (1 kg each when not given)."""
     places = {o.node_name: placement(o) for o in objects}
     by_instance = {int(o.instance): o for o in objects}
     edits = {o.node_name: ColliderEdits() for o in objects}
@@ -506,12 +516,31 @@ def edit_colliders(
             places[name], pieces[name], [(k.node_name, places[k.node_name]) for k in kids]
         )
     parents = graph.parent_of() if graph is not None else {}
+    masses = masses or {}
+    centres = {}
+    for name, ps in pieces.items():
+        com = centre_of_mass(ps)
+        if com is not None:
+            centres[name] = places[name].world(com[None])[0]
+
+    def carried(instance: int, seen: frozenset[int]) -> list[tuple[float, NDArray]]:
+        out = []
+        for c in _children(instance, graph):
+            if c in by_instance and c not in seen and by_instance[c].node_name in centres:
+                node = by_instance[c].node_name
+                out.append((masses.get(node, 1.0), centres[node]))
+                out += carried(c, seen | {c})
+        return out
+
     for obj in objects:
         name = obj.node_name
         edge = parents.get(obj.instance)
         if kinds.get(name) != "free" or edge is None or edge.relation != Relation.RESTS_ON:
             continue
-        piece, entry = footing(places[name], pieces[name])
+        load = carried(int(obj.instance), frozenset({int(obj.instance)}))
+        piece, entry = footing(places[name], pieces[name], masses.get(name, 1.0), load)
+        if entry is not None and load:
+            entry["load_kg"] = round(sum(m for m, _ in load), 3)
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry

@@ -20,7 +20,7 @@ from rescene_core import paths
 from rescene_core.config import ExportConfig
 from rescene_core.export.collision import Decomposition, DecompositionSettings, decompose_all
 from rescene_core.export.completions import edit_colliders, find_hollow
-from rescene_core.export.mjcf import body_kind, build_spec, write_mjcf
+from rescene_core.export.mjcf import MIN_MASS, body_kind, build_spec, closed_volume, write_mjcf
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import load_physics_table
 from rescene_core.export.usd import write_usd
@@ -85,7 +85,13 @@ def export_simulation(
     decompose_s = time.perf_counter() - started
     pieces = {name: list(dec.pieces) for name, dec in decompositions.items()}
     kinds = {o.node_name: body_kind(o.instance, graph)[0] for o in objects}
-    edits = edit_colliders(objects, pieces, hollow, graph, kinds, {n: d.method for n, d in decompositions.items()})
+    masses = {}
+    for o in objects:
+        density = table.lookup(o.label)[0]
+        volume = closed_volume(np.asarray(o.vertices, np.float64) * (scale_of(o.world_from_asset) or 1.0), o.faces)[0]
+        masses[o.node_name] = max(density * volume, MIN_MASS)
+    methods = {n: d.method for n, d in decompositions.items()}
+    edits = edit_colliders(objects, pieces, hollow, graph, kinds, methods, masses)
     decompositions = {name: replace(dec, pieces=tuple(pieces[name])) for name, dec in decompositions.items()}
     mjcf_dir = out_dir / _in_scene(paths.SCENE_MJCF_DIR)
     mjcf_dir.mkdir(parents=True, exist_ok=True)

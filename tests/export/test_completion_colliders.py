@@ -236,3 +236,20 @@ def test_open_side_needs_a_wall_behind_it_else_faces_the_room():
     assert "wall 0" in entry["reason"]
     # no child inside: not hollow
     assert hollow_shell(shelf, placement(shelf), [], SHELL) is None
+
+
+def test_footing_counts_the_load_resting_on_the_object():
+    # a table top on a narrow central pedestal 2 cm shorter than its corner legs' band: it stands alone,
+    # but a 10 kg load at a corner tips it unless it gets a footing
+    top = trimesh.creation.box(bounds=[[0, 0, 0.7], [1, 1, 0.75]])
+    pedestal = trimesh.creation.box(bounds=[[0.45, 0.45, 0], [0.55, 0.55, 0.7]])
+    legs = [
+        trimesh.creation.box(bounds=[[x, y, 0.02], [x + 0.05, y + 0.05, 0.7]]) for x in (0, 0.95) for y in (0, 0.95)
+    ]
+    parts = [top, pedestal, *legs]
+    place = _place(trimesh.util.concatenate(parts))
+    pieces = [(p.vertices, p.faces) for p in parts]
+    assert footing(place, pieces, 20.0) == (None, None)
+    piece, entry = footing(place, pieces, 20.0, [(10.0, np.array([0.95, 0.95, 0.8]))])
+    assert piece is not None and entry["support_margin_after_m"] > 0.01
+    assert piece[0][:, :2].min() == pytest.approx(0.0) and piece[0][:, :2].max() == pytest.approx(1.0)
