@@ -1,4 +1,6 @@
-"""Shared fixtures. Prefect runs against a throwaway home so tests never touch a user's profile."""
+"""Shared fixtures. Prefect runs against a throwaway home, and convex decompositions are cached in a
+throwaway directory (shared by every test and subprocess of the session, so a mesh is decomposed once),
+so tests never touch a user's profile or ~/.cache and run as on a fresh machine."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import pytest
 
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_HOME", tempfile.mkdtemp(prefix="rescene-prefect-home-"))
+os.environ.setdefault("RESCENE_CACHE_DIR", tempfile.mkdtemp(prefix="rescene-cache-"))
 
 
 @pytest.fixture

@@ -2,21 +2,20 @@
 from deployments/prefect.yaml, a process worker, `rescene/scene` on a small capture with one instance
 forced to fail (RUN/faults.json), then the flow run retried with the request the UI's Retry button sends.
 
-Only the stage libraries are the counting fakes of tests/flows/fakes.py (installed in the worker's flow
-run processes by a ``sitecustomize`` on its PYTHONPATH), so the test measures the orchestration, not
-the models."""
+Only the stage libraries are the counting fakes of tests/flows/fakes.py: the flow run carries the job
+variable ``env`` that puts a ``sitecustomize`` on its PYTHONPATH and switches it on, so its processes
+(the first run and the retry) install them, and the test measures the orchestration, not the models."""
 
 from __future__ import annotations
 
 import json
 import os
-import subprocess
 import time
 
 import httpx
 import pytest
 
-from tests.flows.prefect_server import PREFECT, REPO, local_server, stop
+from tests.flows.prefect_server import REPO, wait_slot_released
 from tests.flows.prefect_server import prefect_cli as _cli
 
 SITECUSTOMIZE = """
@@ -40,40 +39,25 @@ def _wait_final(api: str, flow_run_id: str, after: str | None = None, timeout: f
         state = run.get("state") or {}
         if state.get("type") in ("COMPLETED", "FAILED", "CRASHED", "CANCELLED") and state.get("id") != after:
             return state
-        time.sleep(1)
+        time.sleep(0.5)
     raise AssertionError(f"flow run {flow_run_id} not final after {timeout} s")
 
 
 @pytest.fixture(scope="module")
-def operator_stack(tmp_path_factory):
-    """A real server, the pool, the deployments registered by `prefect deploy`, and a process worker."""
-    tmp = tmp_path_factory.mktemp("operator")
-    with local_server(tmp, {"RESCENE_RETRY_DELAY_S": "0.2"}) as env:
-        worker = None
-        try:
-            _cli(["work-pool", "create", "rescene-local", "--type", "process", "--overwrite"], env, timeout=240)
-            deploy = _cli(
-                ["--no-prompt", "deploy", "--all", "--prefect-file", "deployments/prefect.yaml"], env, timeout=240
-            )
-            site = tmp / "site"
-            site.mkdir()
-            (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
-            worker_env = {**env, "RESCENE_TEST_FAKE_STAGES": "1", "PYTHONPATH": f"{site}{os.pathsep}{REPO}"}
-            worker_log = open(tmp / "worker.log", "w")  # noqa: SIM115 - closed with the worker
-            worker = subprocess.Popen(
-                [PREFECT, "worker", "start", "--pool", "rescene-local", "--limit", "2"],
-                env=worker_env, cwd=REPO, stdout=worker_log, stderr=subprocess.STDOUT,
-            )  # fmt: skip
-            yield {
-                "api": env["PREFECT_API_URL"],
-                "env": env,
-                "tmp": tmp,
-                "deploy": deploy,
-                "worker": worker,
-                "worker_log": tmp / "worker.log",
-            }
-        finally:
-            stop(worker)
+def operator_stack(deploy_stack):
+    """The shared server, pool and process worker, with the deployments registered by `prefect deploy`
+    and the ``env`` job variable that installs the stage fakes in a flow run's processes."""
+    tmp, env = deploy_stack["tmp"], deploy_stack["env"]
+    deploy = _cli(["--no-prompt", "deploy", "--all", "--prefect-file", "deployments/prefect.yaml"], env, timeout=240)
+    site = tmp / "site"
+    site.mkdir(exist_ok=True)
+    (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
+    fake_env = {
+        "RESCENE_TEST_FAKE_STAGES": "1",
+        "RESCENE_RETRY_DELAY_S": "0.2",
+        "PYTHONPATH": f"{site}{os.pathsep}{REPO}",
+    }
+    return {**deploy_stack, "deploy": deploy, "job_variables": {"env": fake_env}}
 
 
 @pytest.mark.slow
@@ -93,11 +77,16 @@ def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operat
     run_dir.mkdir(parents=True)
     (run_dir / "faults.json").write_text(json.dumps([{"stage": "asset", "item": 3, "kind": "bad_input", "times": 1}]))
     deployment = httpx.get(f"{api}/deployments/name/rescene/scene", timeout=10).json()
-    flow_run = httpx.post(
+    response = httpx.post(
         f"{api}/deployments/{deployment['id']}/create_flow_run",
-        json={"parameters": {"capture": str(capture), "run_dir": str(run_dir)}},
+        json={
+            "parameters": {"capture": str(capture), "run_dir": str(run_dir)},
+            "job_variables": operator_stack["job_variables"],
+        },
         timeout=10,
-    ).json()
+    )
+    assert response.status_code == 201, response.text
+    flow_run = response.json()
     first = _wait_final(api, flow_run["id"])
     assert first["type"] == "FAILED", (first, operator_stack["worker_log"].read_text()[-3000:])
     assert "instances failed: 3" in first["message"]
@@ -105,6 +94,8 @@ def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operat
     assert manifest["failed_instances"] == [3] and manifest["flow_run_id"] == flow_run["id"]
 
     # the UI's Retry: the same flow run back to Scheduled (AwaitingRetry), forced; the worker picks it up
+    # (once it has let go of the first run's process, as an operator reading the failure would find it)
+    wait_slot_released(operator_stack["worker_log"], flow_run["id"])
     response = httpx.post(f"{api}/flow_runs/{flow_run['id']}/set_state", json=UI_RETRY, timeout=10)
     assert response.status_code in (200, 201), response.text
     assert response.json()["status"] == "ACCEPT"
