@@ -179,6 +179,11 @@ def plane_at(
     return SupportLevel(float(room.floor_distance(now).mean()), Polygon(now[:, :2]))
 
 
+MIN_FACE_SHARE = 0.25
+"""A generated parent's support level must be at least this share of the child's footprint area: smaller
+upward faces are steps of its marching-cubes surface (3 x 3 cm), not faces a child can stand on."""
+TOP_TOLERANCE = 0.05
+"""... and at most this far (m) above the parent's top (a child registered on a fragmented top)."""
 INNER_MIN_ABOVE_BOTTOM = 0.02
 """A child's registered bottom must lie at least this far (m) above its generated parent's mesh bottom to
 count as standing on an inner shelf (lower, it stands on the parent's floor board or under it)."""
@@ -190,17 +195,21 @@ def board_at_child(state: LayoutState, parent: InstanceId, child: InstanceId) ->
     """A support plane at the registered bottom of a child that stands inside its generated parent's volume
     when the parent's points show no board there (occluded by what stands on it). The relation says the
     child rests on the parent and the child's points say where it stands; inside a solid single-view
-    completion the only surface that can carry it is an inner shelf at that height. None when the child is
-    not inside the parent (its footprint centre outside the parent's registered footprint, or its bottom
-    within INNER_MIN_ABOVE_BOTTOM of the parent's bottom)."""
+    completion the only surface that can carry it is an inner shelf at that height; the same holds on a
+    generated top too fragmented to have a face. None when the child is not inside or on the parent (its
+    footprint centre outside the parent's registered footprint, its bottom within INNER_MIN_ABOVE_BOTTOM of
+    the parent's bottom or more than TOP_TOLERANCE above its top)."""
     pobj, cobj, room = state.objects[parent], state.objects[child], state.room
     seen = cobj.world_vertices()
     parent_seen = pobj.world_vertices()
     if not footprint(parent_seen).buffer(INNER_FOOTPRINT_MARGIN).contains(footprint(seen).centroid):
         return None
     bottom = float(room.floor_distance(seen).min())
-    if bottom < float(room.floor_distance(parent_seen).min()) + INNER_MIN_ABOVE_BOTTOM:
+    parent_heights = room.floor_distance(parent_seen)
+    if bottom < float(parent_heights.min()) + INNER_MIN_ABOVE_BOTTOM:
         return None
+    if bottom > float(parent_heights.max()) + TOP_TOLERANCE:
+        return None  # above the parent: no plane in mid-air
     return plane_at(
         state, parent, child, bottom, "the child's registered bottom inside its generated parent (an inner shelf)"
     )
@@ -242,8 +251,16 @@ def compile_support(
     # the level is chosen by where the child was seen standing, not where its parent's correction took it
     seen_bottom = float(room.floor_distance(obj.world_vertices()).min())
     fp = footprint(moved)
-    feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
     parent_generated = not state.objects[parent].exact_shape
+    if parent_generated:  # a marching-cubes step of a few cm^2 is not a face that can carry anything
+        smallest = MIN_FACE_SHARE * fp.area
+        levels = [lv for lv in levels if lv.polygon.area >= smallest]
+        if not levels:  # a fragmented top: the evidence of a surface under the child, if any
+            board = board_from_points(state, parent, child) or board_at_child(state, parent, child)
+            if board is None:
+                return None, {"reason": f"generated parent {parent} has no support face as large as {smallest:.4f} m^2"}
+            levels = [board]
+    feasible = [lv for lv in levels if lv.polygon.intersects(fp)]
     board = None
     inner = cfg.support_inner_tolerance
     if parent_generated and inner is not None and seen_bottom < levels[0].height - inner:
