@@ -173,3 +173,41 @@ def test_a_push_is_bounded_by_the_points_on_the_movers_surface():
     free = attach(objects, graph, rect_room(), cfg.model_copy(update={"depenetration_max_fit_drop": None}))
     gone = np.linalg.norm(free.world_from_asset[InstanceId(1)][:2, 3] - chair.world_from_asset[:2, 3])
     assert gone > 0.1  # unbounded, the pushes carry it away from where it was seen
+
+
+def _stepped_parent():
+    """A generated 'table' of 0.1 x 0.1 m pillars 2 cm apart whose tops step by 4 cm (a marching-cubes surface, no two neighbours level):
+    no upward face is large enough to carry a 0.3 x 0.25 m book stack."""
+    import trimesh
+
+    from rescene_core.assembly.objects import AssemblyObject
+
+    pillars = []
+    for k, (x, y) in enumerate((x, y) for x in np.arange(0, 0.6, 0.12) for y in np.arange(0, 0.48, 0.12)):
+        pillar = trimesh.creation.box(extents=(0.10, 0.10, 0.70 + 0.04 * (k % 3)))
+        pillar.apply_translation([1.76 + x, 2.26 + y, (0.70 + 0.04 * (k % 3)) / 2])
+        pillars.append(pillar)
+    mesh = trimesh.util.concatenate(pillars)
+    return AssemblyObject(InstanceId(1), "table", mesh.vertices, mesh.faces, np.eye(4), exact_shape=False)
+
+
+def test_a_stepped_generated_top_is_no_face_and_the_child_keeps_its_height_on_a_plane():
+    parent = _stepped_parent()
+    books = box_object(2, "book stack", (0.3, 0.25, 0.2), placed(2.05, 2.5, 0.78), exact_shape=False)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 1.0),
+        )
+    )
+    objects = {InstanceId(1): parent, InstanceId(2): books}
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    (plane,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "support plane"]
+    assert "registered bottom" in plane.source
+    assert abs(layout.world_from_asset[InstanceId(2)][2, 3] - 0.78) < 1e-6  # not dropped onto a lower step
+    m = structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())
+    assert m["support_contact_pass"] == 1.0
+    # registered 0.3 m above the top: no plane in mid-air
+    objects[InstanceId(2)] = box_object(2, "book stack", (0.3, 0.25, 0.2), placed(2.05, 2.5, 1.08), exact_shape=False)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    assert not [c for c in layout.completions().get(InstanceId(1), []) if c.kind.value == "support plane"]
