@@ -41,7 +41,7 @@ from rescene_core.assembly.refine import (
 )
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.trim import room_cuts, trimmed
+from rescene_core.assembly.trim import cut_overlaps, room_cuts, trimmed
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
@@ -214,6 +214,8 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         final = choose_branches(wall_state, floor_state, world)
     else:
         final = wall_state
+    if config.trim_completions and config.stop_after == "full":
+        cut_overlaps(final, world)
     add_bases(final)
     record_completions(final)
     return Layout(

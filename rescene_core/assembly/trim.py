@@ -1,4 +1,5 @@
-"""Cut a generated mesh's completion where it reaches through the floor or a wall and its points do not.
+"""Cut a generated mesh's completion where it reaches through the floor, a wall or a neighbour and its
+points do not.
 
 A single-view completion is often deeper or taller than its object (a desk 0.17 m too deep, a sofa 0.1 m
 too tall). Registered on the object's points, its seen side is where the capture saw it and the surplus
@@ -13,6 +14,10 @@ room, capped so a closed mesh stays closed, and is a ``Completion`` of kind ``cu
 frame, so exporters and metrics cut the same mesh. A cut that would keep less than MIN_KEPT_SHARE of the
 mesh's extent across the plane is not made: then the pose, not the completion, is wrong, and the rules
 repair it.
+
+After depenetration (which moves a generated object only as far as its points allow), two completions
+may still fill the same space (a tucked chair and a desk whose completion filled the space between its
+legs): ``cut_overlaps`` cuts the one that was not seen there.
 """
 
 from __future__ import annotations
@@ -22,8 +27,10 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.assembly.collision import CollisionWorld
 from rescene_core.assembly.objects import AssemblyObject
 from rescene_core.assembly.room import Room
+from rescene_core.assembly.state import LayoutState
 from rescene_core.geometry.completion import cut_mesh
 from rescene_core.geometry.sim3 import apply, inverse
 from rescene_core.records import Completion, CompletionKind
@@ -98,3 +105,66 @@ def trimmed(obj: AssemblyObject, cuts: list[Completion]) -> AssemblyObject:
         return obj
     vertices, faces = cut_mesh(obj.vertices, obj.faces, cuts)
     return replace(obj, vertices=vertices, faces=faces)
+
+
+OVERLAP_MAX_POINT_SHARE = 0.05
+"""The mesh cut out of an overlap may hold at most this share of its object's observed points there (the
+points the cut leaves outside the mesh: segmentation bleed and registration noise, not the object)."""
+
+
+def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
+    """After depenetration: cut the pairs of generated assets that still overlap where one of them was not
+    seen. For a colliding pair the direction n is the separating axis of their footprints (from a into b)
+    and the overlap is the slab between b's mesh start and a's mesh end along n. The object with the smaller
+    share of its observed points in that slab, if at most OVERLAP_MAX_POINT_SHARE, is cut at the slab's far
+    side: its completion filled space the other object was seen in. Exact shapes, pairs where both were seen
+    in the slab, and cuts keeping less than MIN_KEPT_SHARE of a mesh's extent along n are left as they are.
+    Returns the number of pairs cut; each cut is a ``cut`` completion."""
+    from rescene_core.assembly.depenetrate import separating_vector
+
+    cut = 0
+    poses = {i: state.pose(i) for i in state.objects}
+    for a, b in world.colliding_pairs(poses, skip=state.forest.related):
+        oa, ob = state.objects[a], state.objects[b]
+        if any(o.exact_shape or o.points is None or len(o.points) < MIN_POINTS for o in (oa, ob)):
+            continue
+        mtv = separating_vector(state.footprint(a), state.footprint(b))
+        length = float(np.linalg.norm(mtv))
+        if length < 1e-9:
+            continue
+        n = np.array([-mtv[0] / length, -mtv[1] / length, 0.0])  # from a into b
+        va, vb = state.vertices(a) @ n, state.vertices(b) @ n
+        lo, hi = float(vb.min()), float(va.max())  # the overlap slab along n
+        if hi <= lo:
+            continue
+        share = {}
+        for i, obj in ((a, oa), (b, ob)):
+            proj = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64)) @ n
+            share[i] = float(np.mean((proj >= lo) & (proj <= hi)))
+        loser = a if share[a] <= share[b] else b
+        if share[loser] > OVERLAP_MAX_POINT_SHARE:
+            continue
+        # a keeps what lies before the slab (normal -n at lo), b what lies after it (normal n at hi)
+        level, normal, verts_n = (lo, -n, va) if loser == a else (hi, n, vb)
+        kept = level - verts_n.min() if loser == a else verts_n.max() - level
+        if kept < MIN_KEPT_SHARE * np.ptp(verts_n):
+            continue
+        verts = state.vertices(loser)
+        origin = verts[0] + (level - float(verts[0] @ n)) * n
+        ends = apply(inverse(state.pose(loser)), np.stack([origin, origin + normal]))
+        ends[1] = ends[0] + (ends[1] - ends[0]) / np.linalg.norm(ends[1] - ends[0])
+        other = b if loser == a else a
+        state.add_completion(
+            Completion(
+                loser,
+                CompletionKind.CUT,
+                ends,
+                f"the generated mesh fills space where object {int(other)} was seen and it was not "
+                f"({share[loser]:.0%} of its points there): cut there",
+            )
+        )
+        state.log(
+            loser, "overlap cuts", "cut overlap", other=int(other), axis=n, depth_m=hi - lo, points_share=share[loser]
+        )
+        cut += 1
+    return cut

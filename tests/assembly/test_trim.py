@@ -73,3 +73,40 @@ def test_no_cut_for_exact_shapes_small_crossings_or_a_pose_mostly_beyond_the_wal
     # registered with most of the mesh behind the wall: the pose is wrong, the rules repair it
     far = replace(desk, world_from_asset=placed(2.0, -0.2))
     assert room_cuts(far, room) == []
+
+
+def _front_and_side_points(rng, x0, x1, side_x, height):
+    """Points on a wardrobe's front (y = 1.7, x0..x1) and on its outer side (x = side_x)."""
+    front = np.c_[rng.uniform(x0, x1, 600), np.full(600, 1.7), rng.uniform(0.0, height, 600)]
+    side = np.c_[np.full(300, side_x), rng.uniform(1.7, 2.3, 300), rng.uniform(0.0, height, 300)]
+    return np.vstack([front, side])
+
+
+def test_two_completions_filling_the_same_space_are_cut_where_one_was_not_seen():
+    # two wardrobes side by side, 0.9 m wide, seen from the front and their outer sides; the left one's
+    # completion is 0.1 m too wide and fills the right one's space
+    rng = np.random.default_rng(5)
+    left = box_object(1, "wardrobe", (1.0, 0.6, 2.0), placed(1.5, 2.0), exact_shape=False)
+    right = box_object(2, "wardrobe", (0.9, 0.6, 2.0), placed(2.35, 2.0), exact_shape=False)
+    left = replace(left, points=_front_and_side_points(rng, 1.0, 1.9, 1.0, 2.0))
+    right = replace(right, points=_front_and_side_points(rng, 1.9, 2.8, 2.8, 2.0))
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0),
+        )
+    )
+    objects = {InstanceId(1): left, InstanceId(2): right}
+    cfg = AttachmentConfig(near_wall_snap=False, depenetration_max_fit_drop=0.0)  # both held where seen
+    layout = attach(objects, graph, rect_room(), cfg)
+    cuts = [op for op in layout.operations if op["rule"] == "cut overlap"]
+    assert [op["instance"] for op in cuts] == [1]  # the one not seen in the overlap
+    scene = metric_objects(objects, layout)
+    assert structural_metrics(scene, layout, graph, rect_room())["collision_pairs"] == 0
+    # neither was moved off its points (pushes stay within the 3 cm surface margin of evidence.surface_fit)
+    for i in objects:
+        shift = layout.world_from_asset[i][:3, 3] - objects[i].world_from_asset[:3, 3]
+        assert np.linalg.norm(shift) <= 0.031
+    # without cuts the overlap stays
+    plain = attach(objects, graph, rect_room(), cfg.model_copy(update={"trim_completions": False}))
+    assert structural_metrics(metric_objects(objects, plain), plain, graph, rect_room())["collision_pairs"] == 1
