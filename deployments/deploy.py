@@ -4,7 +4,8 @@ prefect.yaml is the source of truth. ``prefect deploy --all --prefect-file deplo
 reads it too, but Prefect 3.8.8's CLI ends with an HTTP 422 after creating the first deployment (its
 check for online workers sends ``limit: null``, which the server rejects under the pinned fastapi);
 this script registers every deployment through ``RunnerDeployment.apply`` instead, which skips that
-check. Run it from the repository root: workers then run the flows from this directory.
+check. Run it from the repository root: each deployment gets the pull step `prefect deploy` would record
+(``set_working_directory`` to that root), so workers run the flows in place.
 
     python deployments/deploy.py [--prefect-file deployments/prefect.yaml] [--name scene ...]
 """
@@ -44,7 +45,17 @@ def register(spec: dict[str, Any]):
         work_pool_name=pool.get("name"),
         work_queue_name=pool.get("work_queue_name"),
     )
-    return deployment.apply(work_pool_name=pool.get("name"))
+    deployment_id = deployment.apply(work_pool_name=pool.get("name"))
+    # the pull step `prefect deploy` records: run the flow in this tree. Without any pull step a Prefect
+    # 3.8 worker copies the deployment's whole directory (the virtual environment included, gigabytes) into
+    # a temporary folder for every flow run.
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.actions import DeploymentUpdate
+
+    here = {"prefect.deployments.steps.set_working_directory": {"directory": str(Path.cwd().resolve())}}
+    with get_client(sync_client=True) as client:
+        client.update_deployment(deployment_id, DeploymentUpdate(pull_steps=[here]))
+    return deployment_id
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -119,7 +119,11 @@ def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path):
     with get_client(sync_client=True) as client:
         client.create_work_pool(WorkPoolCreate(name="no-workers", type="process"), overwrite=True)
     spec = {"name": "idle", "entrypoint": "flows/scene.py:rescene", "work_pool": {"name": "no-workers"}}
-    register(spec)
+    deployment_id = register(spec)
+    with get_client(sync_client=True) as client:
+        # workers run the flow in this tree, not in a copy of it (the copy includes the virtual environment)
+        steps = client.read_deployment(deployment_id).pull_steps
+    assert steps == [{"prefect.deployments.steps.set_working_directory": {"directory": str(Path.cwd().resolve())}}]
     split = tmp_path / "idle.txt"
     split.write_text(f"{box_capture_path} boxes\n")
     out = tmp_path / "runs"
