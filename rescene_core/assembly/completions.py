@@ -30,7 +30,7 @@ from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
 from rescene_core.geometry.sim3 import apply, inverse
-from rescene_core.records import Completion, CompletionKind, InstanceId
+from rescene_core.records import Completion, CompletionKind, InstanceId, Relation, Root
 
 SNAP_STEPS = 41
 """Vertical positions tried between the registered height and the full floor snap."""
@@ -117,3 +117,50 @@ def add_bases(state: LayoutState) -> None:
         world = np.vstack([floor_ring, top_ring])
         points_asset = apply(inverse(state.pose(i)), world)
         state.add_completion(Completion(i, CompletionKind.BASE, points_asset, reason))
+
+
+CONTACT_BAND = 0.01
+"""Mesh vertices within this distance (m) of the floor are what an object stands on."""
+TIPPING_MARGIN = 0.02
+"""An object stands when its footprint centre lies at least this far (m) inside what it stands on."""
+UNDERSIDE_BAND = 0.25
+"""A tipping object's base reaches up to this share of its height: its lower part, projected to the floor."""
+
+
+def add_tipping_bases(state: LayoutState) -> None:
+    """A base under a generated object resting on the floor whose mesh touches the floor only at an edge
+    (its footprint centre more than TIPPING_MARGIN outside the hull of its vertices within CONTACT_BAND of
+    the floor: a single-view completion with a sloped underside, a bed that would tip over in a simulator).
+    The base is the convex hull of the mesh's lower part (vertices within UNDERSIDE_BAND of its height above
+    its bottom) and of its whole footprint on the floor: it fills under the object without reaching beyond
+    its footprint."""
+    room = state.room
+    if abs(room.up[2]) < 1e-9:
+        return
+    for child, edge in state.forest.edges.items():
+        obj = state.objects[child]
+        if obj.exact_shape or not (edge.parent is Root.FLOOR and edge.relation is Relation.RESTS_ON):
+            continue
+        if any(c.kind is CompletionKind.BASE for c in state.completions.get(child, ())):
+            continue
+        verts = state.vertices(child)
+        heights = room.floor_distance(verts)
+        if heights.min() > CONTACT_BAND:  # not on the floor at all: not this rule's case
+            continue
+        contact = MultiPoint(verts[heights <= heights.min() + CONTACT_BAND][:, :2]).convex_hull
+        centre = footprint(verts).centroid
+        inside = contact.buffer(-TIPPING_MARGIN) if isinstance(contact, Polygon) else None
+        if inside is not None and not inside.is_empty and inside.contains(centre):
+            continue
+        low = verts[heights <= heights.min() + UNDERSIDE_BAND * float(np.ptp(heights))]
+        dropped = verts - (heights / float(room.up[2]))[:, None] * np.array([0.0, 0.0, 1.0])
+        world = np.vstack([low, dropped])
+        state.add_completion(
+            Completion(
+                child,
+                CompletionKind.BASE,
+                apply(inverse(state.pose(child)), world),
+                "the generated mesh touches the floor only at an edge (its centre beyond what it stands on): "
+                "a base under its lower part",
+            )
+        )

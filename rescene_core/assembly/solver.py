@@ -24,7 +24,7 @@ from collections import defaultdict
 import numpy as np
 
 from rescene_core.assembly.collision import CollisionWorld
-from rescene_core.assembly.completions import add_bases
+from rescene_core.assembly.completions import add_bases, add_tipping_bases
 from rescene_core.assembly.depenetrate import depenetrate
 from rescene_core.assembly.graph import build_forest
 from rescene_core.assembly.objects import AssemblyObject, check_object
@@ -217,6 +217,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     if config.trim_completions and config.stop_after == "full":
         cut_overlaps(final, world)
     add_bases(final)
+    add_tipping_bases(final)
     record_completions(final)
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},

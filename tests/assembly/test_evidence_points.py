@@ -10,6 +10,7 @@ from rescene_core.assembly.scenes import box_object, placed, rect_room
 from rescene_core.bench.assembly import metric_objects
 from rescene_core.config import AttachmentConfig
 from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.geometry.sim3 import apply
 from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
 
 
@@ -211,3 +212,30 @@ def test_a_stepped_generated_top_is_no_face_and_the_child_keeps_its_height_on_a_
     objects[InstanceId(2)] = box_object(2, "book stack", (0.3, 0.25, 0.2), placed(2.05, 2.5, 1.08), exact_shape=False)
     layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
     assert not [c for c in layout.completions().get(InstanceId(1), []) if c.kind.value == "support plane"]
+
+
+def test_a_mesh_touching_the_floor_only_at_an_edge_gets_a_base_under_it():
+    # a generated bed whose completion came out as a wedge: it touches the floor along one edge only
+    import trimesh
+
+    from rescene_core.assembly.objects import AssemblyObject, footprint
+
+    wedge = trimesh.convex.convex_hull(
+        np.array([[x, y, z] for x in (1.0, 3.0) for y in (2.0, 3.6) for z in (0.0, 0.6)])
+        + np.array([[0, 0, 0]] * 4 + [[0, 0, 0.3], [0, 0, 0.3], [0, 0, 0.3], [0, 0, 0.3]]) * np.array([1, 1, 1])
+    )
+    verts = np.asarray(wedge.vertices).copy()
+    verts[verts[:, 0] > 2.0, 2] += 0.3  # the far half floats: only the x = 1 edge rests on the floor
+    bed = AssemblyObject(InstanceId(1), "bed", verts, np.asarray(wedge.faces), np.eye(4), exact_shape=False)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    layout = attach({InstanceId(1): bed}, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    (base,) = layout.completions()[InstanceId(1)]
+    assert base.kind.value == "base" and "only at an edge" in base.source
+    world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
+    assert abs(world[:, 2].min()) < 1e-9
+    placed_bed = footprint(bed.world_vertices(layout.world_from_asset[InstanceId(1)]))
+    assert footprint(world).buffer(1e-6).contains(placed_bed.centroid)
+    # an exact shape standing on its whole underside gets none
+    box = box_object(2, "bed", (2.0, 1.6, 0.6), placed(2.0, 2.8), exact_shape=False)
+    graph = SceneGraph((Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    assert not attach({InstanceId(2): box}, graph, rect_room(), AttachmentConfig(near_wall_snap=False)).completions()
