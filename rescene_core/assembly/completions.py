@@ -29,6 +29,7 @@ from rescene_core.assembly.evidence import points_fit
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
+from rescene_core.geometry.completion import cut_mesh
 from rescene_core.geometry.sim3 import apply, inverse
 from rescene_core.records import Completion, CompletionKind, InstanceId, Relation, Root
 
@@ -132,8 +133,8 @@ def add_tipping_bases(state: LayoutState) -> None:
     (its footprint centre more than TIPPING_MARGIN outside the hull of its vertices within CONTACT_BAND of
     the floor: a single-view completion with a sloped underside, a bed that would tip over in a simulator).
     The base is the convex hull of the mesh's lower part (vertices within UNDERSIDE_BAND of its height above
-    its bottom) and of its whole footprint on the floor: it fills under the object without reaching beyond
-    its footprint."""
+    its bottom) and of its whole footprint (cut as the object is cut) on the floor: it fills under the object
+    without reaching beyond its footprint, and is not added where another object reaches into that space."""
     room = state.room
     if abs(room.up[2]) < 1e-9:
         return
@@ -143,7 +144,8 @@ def add_tipping_bases(state: LayoutState) -> None:
             continue
         if any(c.kind is CompletionKind.BASE for c in state.completions.get(child, ())):
             continue
-        verts = state.vertices(child)
+        cuts = [c for c in state.completions.get(child, ()) if c.kind is CompletionKind.CUT]
+        verts = apply(state.pose(child), cut_mesh(obj.vertices, obj.faces, cuts)[0]) if cuts else state.vertices(child)
         heights = room.floor_distance(verts)
         if heights.min() > CONTACT_BAND:  # not on the floor at all: not this rule's case
             continue
@@ -155,6 +157,8 @@ def add_tipping_bases(state: LayoutState) -> None:
         low = verts[heights <= heights.min() + UNDERSIDE_BAND * float(np.ptp(heights))]
         dropped = verts - (heights / float(room.up[2]))[:, None] * np.array([0.0, 0.0, 1.0])
         world = np.vstack([low, dropped])
+        if _under_a_neighbour(state, child, footprint(world), float(room.floor_distance(low).max())):
+            continue
         state.add_completion(
             Completion(
                 child,
@@ -164,3 +168,18 @@ def add_tipping_bases(state: LayoutState) -> None:
                 "a base under its lower part",
             )
         )
+
+
+def _under_a_neighbour(state: LayoutState, i: InstanceId, outline: Polygon, top: float) -> bool:
+    """Whether another object (not in i's subtree) reaches into ``outline`` [world xy] below ``top`` (m above
+    the floor): a base there would fill space it stands in (a chair tucked under a desk)."""
+    own = set(state.forest.subtree(i))
+    for j in state.objects:
+        if j in own:
+            continue
+        verts = state.vertices(j)
+        if float(state.room.floor_distance(verts).min()) >= top:
+            continue
+        if outline.intersection(footprint(verts)).area > 0.01 * outline.area:
+            return True
+    return False
