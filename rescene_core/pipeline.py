@@ -25,7 +25,7 @@ from rescene_core.capture import open_capture
 from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.config import RunConfig
 from rescene_core.evaluation import evaluate_run
-from rescene_core.export import ExportConfig, export_scene, placed_object
+from rescene_core.export import ExportConfig, export_scene, placed_objects
 from rescene_core.hierview import select_keyframes, select_views
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, RoomShell, SceneGraph, Stage
@@ -115,19 +115,7 @@ def run_pipeline(
     missing_ids = {int(m.instance) for m in missing}
     graph = timed(Stage.FUSION, fuse, predictions, cap, shell, config.scenegraph, missing_ids)
     layout = timed(Stage.ATTACHMENT, attach, objects, graph, shell, config.attachment) if objects else None
-    completions = layout.completions() if layout else {}
-    export_objects = [
-        placed_object(
-            int(i),
-            o.label,
-            o.vertices,
-            o.faces,
-            layout.world_from_asset.get(i, o.world_from_asset) if layout else o.world_from_asset,
-            o.world_from_asset,
-            tuple(completions.get(i, ())),
-        )
-        for i, o in objects.items()
-    ]
+    export_objects = placed_objects(objects.values(), layout)
     layout_missing = list(layout.missing) if layout else []
     timed(
         Stage.EXPORT,

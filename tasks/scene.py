@@ -19,7 +19,7 @@ import numpy as np
 from rescene_core.capture import open_capture
 from rescene_core.config import AttachmentConfig, KeyFrameConfig, SceneGraphConfig, ShellConfig, SimcheckConfig
 from rescene_core.evaluation import evaluate_run
-from rescene_core.export import ExportConfig, export_scene, placed_object
+from rescene_core.export import ExportConfig, export_scene, placed_objects
 from rescene_core.io import read_json, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
@@ -231,19 +231,7 @@ def export(
     with executing(run_dir, Stage.EXPORT) as seg:
         cap = open_capture(capture.path, validate=False)
         layout_rec = Layout.from_json(read_json(run.root / layout.path))
-        completions = layout_rec.completions()
-        objects = [
-            placed_object(
-                o.instance,
-                o.label,
-                o.vertices,
-                o.faces,
-                layout_rec.world_from_asset.get(InstanceId(o.instance), o.world_from_asset),
-                o.world_from_asset,
-                tuple(completions.get(InstanceId(o.instance), ())),
-            )
-            for o in _placed(run_dir, cap, assets, poses)
-        ]
+        objects = placed_objects(_placed(run_dir, cap, assets, poses), layout_rec)
         all_missing = list(missing) + list(layout_rec.missing)
         hashes = export_scene(
             run.scene,

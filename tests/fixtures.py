@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from rescene_core.capture import CaptureArrays, points_to_csr, write_capture
 from rescene_core.capture.synth import SynthScene, make_scene
 from rescene_core.geometry.camera import look_at
-from rescene_core.records import Camera, Instance, InstanceId
+from rescene_core.records import Camera, Instance, InstanceId, Plane, RoomShell, WallPlane
 from rescene_core.render import Light, Renderer, RenderMesh, Shading
 
 __all__ = ["Box", "box_capture_arrays", "look_at", "pinhole", "synth_arrays", "synth_scene", "write_arrays"]
@@ -51,6 +51,15 @@ class Box:
 
     def mesh(self) -> trimesh.Trimesh:
         return trimesh.creation.box(bounds=np.array([self.lo, self.hi], float))
+
+
+ONE_WALL_SHELL = RoomShell(
+    floor=Plane((0.0, 0.0, 1.0), 0.0),
+    walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),),
+    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
+    ceiling_height=2.5,
+)
+"""A 4 x 4 m room, 2.5 m high, with one wall along y = -2 (the simulation exports' and checks' tests)."""
 
 
 def pinhole(width: int, height: int, focal: float) -> NDArray[np.float64]:

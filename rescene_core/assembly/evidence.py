@@ -167,17 +167,26 @@ object away from where the capture saw it (a table top registered where it was s
 legs, dropped 0.7 m onto the floor), so the correction is refused and the object keeps its registered pose."""
 
 
-def points_fit(obj, world_from_asset: NDArray) -> float | None:
-    """Share of ``obj.points`` lying within POINTS_FIT_MARGIN of the mesh's bounding box at
-    ``world_from_asset`` [4, 4]; None without points."""
+def _box_frame(obj, world_from_asset: NDArray):
+    """``obj.points`` in its asset frame at ``world_from_asset`` [4, 4] with the mesh box's corners and the
+    pose's scale: (local [n, 3], lo [3], hi [3], scale), or None without points."""
     pts = obj.points
     if pts is None or len(pts) == 0:
         return None
     pose = np.asarray(world_from_asset, dtype=np.float64)
     local = apply(inverse(pose), np.asarray(pts, dtype=np.float64))
-    lo, hi = obj.vertices.min(axis=0), obj.vertices.max(axis=0)
+    return local, obj.vertices.min(axis=0), obj.vertices.max(axis=0), scale_of(pose)
+
+
+def points_fit(obj, world_from_asset: NDArray) -> float | None:
+    """Share of ``obj.points`` lying within POINTS_FIT_MARGIN of the mesh's bounding box at
+    ``world_from_asset`` [4, 4]; None without points."""
+    frame = _box_frame(obj, world_from_asset)
+    if frame is None:
+        return None
+    local, lo, hi, scale = frame
     outside = np.maximum(np.maximum(lo - local, local - hi), 0.0)
-    return float(np.mean(np.linalg.norm(outside, axis=1) * scale_of(pose) <= POINTS_FIT_MARGIN))
+    return float(np.mean(np.linalg.norm(outside, axis=1) * scale <= POINTS_FIT_MARGIN))
 
 
 def surface_fit(obj, world_from_asset: NDArray) -> float | None:
@@ -185,16 +194,14 @@ def surface_fit(obj, world_from_asset: NDArray) -> float | None:
     ``world_from_asset`` [4, 4], inside or outside; None without points. Unlike ``points_fit`` it drops when
     a move buries the seen surface inside the box as well as when it leaves it outside (a push towards the
     camera that saw the object)."""
-    pts = obj.points
-    if pts is None or len(pts) == 0:
+    frame = _box_frame(obj, world_from_asset)
+    if frame is None:
         return None
-    pose = np.asarray(world_from_asset, dtype=np.float64)
-    local = apply(inverse(pose), np.asarray(pts, dtype=np.float64))
-    lo, hi = obj.vertices.min(axis=0), obj.vertices.max(axis=0)
+    local, lo, hi, scale = frame
     outside = np.linalg.norm(np.maximum(np.maximum(lo - local, local - hi), 0.0), axis=1)
     inside = np.minimum(local - lo, hi - local).min(axis=1)  # depth below the nearest face (< 0: outside)
     depth = np.where(inside > 0.0, inside, outside)
-    return float(np.mean(depth * scale_of(pose) <= POINTS_FIT_MARGIN))
+    return float(np.mean(depth * scale <= POINTS_FIT_MARGIN))
 
 
 def evidence_refuses(state: LayoutState, i: InstanceId, new_pose: NDArray) -> str | None:

@@ -33,7 +33,7 @@ from rescene_core.assembly.room import Room
 from rescene_core.assembly.state import LayoutState
 from rescene_core.geometry.completion import cut_mesh
 from rescene_core.geometry.sim3 import apply, inverse
-from rescene_core.records import Completion, CompletionKind
+from rescene_core.records import Completion, CompletionKind, InstanceId
 
 TRIM_MARGIN = 0.01
 """How far (m) a mesh must reach beyond a boundary, and beyond its own points, to be cut."""
@@ -82,21 +82,26 @@ def room_cuts(obj: AssemblyObject, room: Room) -> list[Completion]:
             continue
         origin = verts[int(np.argmin(dist))] + (level - float(dist.min())) * wall.normal
         cuts.append((origin, wall.normal, f"wall {wall.id}"))
-    out = []
-    to_asset = inverse(pose)
-    for origin, normal, what in cuts:
-        ends = apply(to_asset, np.stack([origin, origin + normal]))
-        direction = ends[1] - ends[0]
-        ends[1] = ends[0] + direction / np.linalg.norm(direction)
-        out.append(
-            Completion(
-                obj.instance,
-                CompletionKind.CUT,
-                ends,
-                f"the generated mesh reaches through the {what} beyond the object's observed points: cut there",
-            )
+    return [
+        cut_plane(
+            obj.instance,
+            pose,
+            origin,
+            normal,
+            f"the generated mesh reaches through the {what} beyond the object's observed points: cut there",
         )
-    return out
+        for origin, normal, what in cuts
+    ]
+
+
+def cut_plane(instance: InstanceId, world_from_asset: NDArray, origin: NDArray, normal: NDArray, source: str) -> Completion:
+    """The ``cut`` completion of the world plane through ``origin`` [3] with ``normal`` [3] (the side kept),
+    in the asset frame of an object at ``world_from_asset`` [4, 4]: the point and the point plus the unit
+    normal there."""
+    ends = apply(inverse(np.asarray(world_from_asset, np.float64)), np.stack([origin, origin + normal]))
+    direction = ends[1] - ends[0]
+    ends[1] = ends[0] + direction / np.linalg.norm(direction)
+    return Completion(instance, CompletionKind.CUT, ends, source)
 
 
 def trimmed(obj: AssemblyObject, cuts: list[Completion]) -> AssemblyObject:
@@ -151,14 +156,13 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
             continue
         verts = state.vertices(loser)
         origin = verts[0] + (level - float(verts[0] @ n)) * n
-        ends = apply(inverse(state.pose(loser)), np.stack([origin, origin + normal]))
-        ends[1] = ends[0] + (ends[1] - ends[0]) / np.linalg.norm(ends[1] - ends[0])
         other = b if loser == a else a
         state.add_completion(
-            Completion(
+            cut_plane(
                 loser,
-                CompletionKind.CUT,
-                ends,
+                state.pose(loser),
+                origin,
+                normal,
                 f"the generated mesh fills space where object {int(other)} was seen and it was not "
                 f"({share[loser]:.0%} of its points there): cut there",
             )

@@ -521,7 +521,7 @@ def registration_physics(
     under WORK/convex_cache) and ``rescene_core.sim.simcheck_run`` on it (2 s under gravity)."""
     import shutil
 
-    from rescene_core.export import ExportConfig, export_scene, placed_object
+    from rescene_core.export import ExportConfig, export_scene, placed_objects
     from rescene_core.paths import RunPaths
     from rescene_core.sim import SimcheckConfig, simcheck_run
 
@@ -529,19 +529,8 @@ def registration_physics(
     layout = attach(objects, graph, shell, AttachmentConfig())
     attached = time.perf_counter()
     completions = layout.completions()
-    export_objects = [
-        placed_object(
-            int(i),
-            o.label,
-            o.vertices,
-            o.faces,
-            layout.world_from_asset[i],
-            o.world_from_asset,
-            tuple(completions.get(i, ())),
-        )
-        for i, o in sorted(objects.items())
-        if i in layout.world_from_asset
-    ]
+    placed = [o for i, o in sorted(objects.items()) if i in layout.world_from_asset]
+    export_objects = placed_objects(placed, layout)
     shutil.rmtree(run_dir, ignore_errors=True)
     config = ExportConfig(decomposition_cache=str(work_dir / "convex_cache"))
     export_scene(RunPaths(run_dir).scene, export_objects, shell, graph, layout.missing, config)

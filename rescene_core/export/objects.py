@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.records import Completion, CompletionKind
+from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
 
 
 @dataclass(frozen=True)
@@ -65,3 +67,38 @@ def placed_object(
         registered_world_from_asset,
         tuple(c for c in completions if c.kind is not CompletionKind.CUT),
     )
+
+
+class RegisteredObject(Protocol):
+    """What ``placed_objects`` reads of an object: its asset-frame mesh and its registered pose."""
+
+    @property
+    def instance(self) -> int: ...
+    @property
+    def label(self) -> str: ...
+    @property
+    def vertices(self) -> NDArray[np.float64]: ...
+    @property
+    def faces(self) -> NDArray[np.int64]: ...
+    @property
+    def world_from_asset(self) -> NDArray[np.float64]: ...
+
+
+def placed_objects(objects: Iterable[RegisteredObject], layout: Layout | None) -> list[ExportObject]:
+    """The ExportObjects of registered ``objects`` at their ``layout`` poses (the registered pose for an
+    object the layout did not place, or without a layout), each with the completions attachment gave it
+    (``placed_object``)."""
+    completions = layout.completions() if layout is not None else {}
+    poses = layout.world_from_asset if layout is not None else {}
+    return [
+        placed_object(
+            o.instance,
+            o.label,
+            o.vertices,
+            o.faces,
+            poses.get(InstanceId(int(o.instance)), o.world_from_asset),
+            o.world_from_asset,
+            tuple(completions.get(InstanceId(int(o.instance)), ())),
+        )
+        for o in objects
+    ]

@@ -31,15 +31,11 @@ from rescene_core.records import (
     WallPlane,
 )
 from rescene_core.sim import SimcheckConfig, simcheck_run
+from tests.fixtures import ONE_WALL_SHELL
 
 pytest.importorskip("mujoco")
 
-SHELL = RoomShell(
-    floor=Plane((0.0, 0.0, 1.0), 0.0),
-    walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),),
-    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
-    ceiling_height=2.5,
-)
+SHELL = ONE_WALL_SHELL
 SHELF_EXTENTS = (0.8, 0.35, 1.6)
 YAW_180 = np.diag([-1.0, -1.0, 1.0])
 SHELF_CENTRE = np.array([0.0, -2.0 + 0.175 + 0.001, 0.8])

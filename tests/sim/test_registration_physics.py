@@ -9,16 +9,12 @@ import trimesh
 from rescene_core.assembly import AssemblyObject
 from rescene_core.bench.assembly import METRICS, STAGES, physics_summary, registration_physics, table
 from rescene_core.geometry import sim3
-from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+from tests.fixtures import ONE_WALL_SHELL
 
 pytest.importorskip("mujoco")
 
-SHELL = RoomShell(
-    floor=Plane((0.0, 0.0, 1.0), 0.0),
-    walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),),
-    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
-    ceiling_height=2.5,
-)
+SHELL = ONE_WALL_SHELL
 
 
 def _box(i: int, label: str, extents, centre) -> AssemblyObject:

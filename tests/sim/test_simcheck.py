@@ -10,17 +10,13 @@ import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.geometry import sim3
-from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
 from rescene_core.sim import SimcheckConfig, simcheck_run
+from tests.fixtures import ONE_WALL_SHELL
 
 pytest.importorskip("mujoco")
 
-SHELL = RoomShell(
-    floor=Plane((0.0, 0.0, 1.0), 0.0),
-    walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),),
-    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
-    ceiling_height=2.5,
-)
+SHELL = ONE_WALL_SHELL
 
 
 def _box(instance, label, centre, extents=(0.4, 0.4, 0.4)):
