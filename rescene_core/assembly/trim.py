@@ -94,7 +94,9 @@ def room_cuts(obj: AssemblyObject, room: Room) -> list[Completion]:
     ]
 
 
-def cut_plane(instance: InstanceId, world_from_asset: NDArray, origin: NDArray, normal: NDArray, source: str) -> Completion:
+def cut_plane(
+    instance: InstanceId, world_from_asset: NDArray, origin: NDArray, normal: NDArray, source: str
+) -> Completion:
     """The ``cut`` completion of the world plane through ``origin`` [3] with ``normal`` [3] (the side kept),
     in the asset frame of an object at ``world_from_asset`` [4, 4]: the point and the point plus the unit
     normal there."""
