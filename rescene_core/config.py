@@ -483,7 +483,16 @@ class AttachmentConfig(_Section):
     contact_gap: float = 0.01
     """Default contact gap (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
     wall_collision_margin: float = 0.02
-    """Wall collision margin (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
+    """Wall collision margin (m): a gap between an object and a wall up to this is contact and is kept.
+    Default: the paper's (Table 'Default attachment hyperparameters')."""
+    restore_toward_evidence: bool = True
+    """After depenetration, step each generated object back toward its registered place as far as its
+    contacts, the room and its neighbours allow (``assembly/restore.py``)."""
+    wall_contact_gap: float = 0.002
+    """Gap (m) a repair leaves between an object and the wall it moves the object onto or back inside of
+    (floor-snap footprint step, wall and corner snaps, outside repair): the smallest correction that makes
+    contact. With the collision margin as the target every object standing against a wall was put 2 cm off it,
+    away from where the capture saw it."""
     wall_corner_margin: float = 0.05
     """Wall corner margin (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
     max_floor_snap: float = 1.40

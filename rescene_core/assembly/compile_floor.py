@@ -5,7 +5,7 @@ the floor polygon. Closed-form minimiser: (1) level the asset axis nearest to th
 tilt of at most ``max_level_tilt_deg``), (2) optionally turn about the vertical onto the nearest room axis
 when that is within ``max_floor_yaw_deg``, (3) translate along the floor normal so the lowest vertex lies
 on the floor (at most ``max_floor_snap`` m), (4) translate the footprint by the smallest step that puts it
-inside the floor polygon shrunk by ``wall_collision_margin``.
+inside the floor polygon shrunk by ``wall_contact_gap``.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
         drop = float(np.clip(drop, -cfg.max_floor_snap, cfg.max_floor_snap))
     correction = translation(drop * room.up) @ correction
     info["vertical_m"] = drop
-    inner = inner_polygon(room, cfg.wall_collision_margin)
+    inner = inner_polygon(room, cfg.wall_contact_gap)
     if inner is not None:
         moved = apply(correction @ pose, obj.vertices)
         fp = footprint(moved)

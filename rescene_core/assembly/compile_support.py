@@ -215,6 +215,64 @@ def board_at_child(state: LayoutState, parent: InstanceId, child: InstanceId) ->
     )
 
 
+EXTENSION_MAX = 0.10
+"""Farthest (m) a parent's top is grown to reach a child's registered centre: beyond, a repair moved the
+parent on purpose (a snap to its wall), and the child goes with it."""
+EXTENSION_SEEN_MARGIN = 0.05
+"""The child's registered footprint centre must lie within this distance (m) of the horizontal hull of its
+parent's observed points for the parent's face to be extended under it."""
+
+
+def parent_seen_under(state: LayoutState, parent: InstanceId, child: InstanceId) -> bool:
+    """Whether the capture saw ``parent`` under ``child``'s registered place: the child's registered
+    footprint centre lies within EXTENSION_SEEN_MARGIN of the horizontal hull of the parent's observed points
+    (those within BOARD_BOX_MARGIN of its registered mesh box: bleed from other objects left out)."""
+    pobj = state.objects[parent]
+    if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
+        return False
+    pts = np.asarray(pobj.points, dtype=np.float64)
+    local = apply(inverse(pobj.world_from_asset), pts)
+    margin = BOARD_BOX_MARGIN / scale_of(pobj.world_from_asset)
+    lo, hi = pobj.vertices.min(axis=0) - margin, pobj.vertices.max(axis=0) + margin
+    pts = pts[np.all((local >= lo) & (local <= hi), axis=1)]
+    if len(pts) < BOARD_MIN_POINTS:
+        return False
+    hull = shapely.MultiPoint(pts[:, :2]).convex_hull
+    centre = footprint(state.objects[child].world_vertices()).centroid
+    return bool(hull.buffer(EXTENSION_SEEN_MARGIN).contains(centre))
+
+
+def extend_under_child(
+    state: LayoutState, parent: InstanceId, child: InstanceId, level: SupportLevel
+) -> SupportLevel | None:
+    """``level`` of generated ``parent`` grown to carry ``child`` where the child was registered, when the
+    registered centre is off the face but the parent was seen under it (``parent_seen_under``): the
+    parent's generated top is too small, or a repair moved the parent, not the child, off the evidence. The
+    grown face (the convex hull of the face and the child's registered footprint, at the face's height) is a
+    ``support plane`` completion in the parent's asset frame, which exporters add as a board; None: no
+    evidence, or the centre more than EXTENSION_MAX off the face; the child goes to the nearest point of the
+    face."""
+    room = state.room
+    seen = footprint(state.objects[child].world_vertices())
+    if level.polygon.distance(seen.centroid) > EXTENSION_MAX:
+        return None
+    if abs(room.up[2]) < 1e-9 or not parent_seen_under(state, parent, child):
+        return None
+    grown = shapely.union_all([level.polygon, seen]).convex_hull
+    if not isinstance(grown, Polygon) or grown.is_empty:
+        return None
+    ring = np.asarray(grown.exterior.coords)[:-1]
+    base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
+    world = np.c_[ring, (level.height - base) / float(room.up[2])]
+    source = f"the parent's top grown under child {int(child)}, where the capture saw both"
+    # one extension per child: a later re-seat replaces the one an earlier stage made
+    state.completions[parent] = [c for c in state.completions.get(parent, []) if c.source != source]
+    state.add_completion(
+        Completion(parent, CompletionKind.SUPPORT_PLANE, apply(inverse(state.pose(parent)), world), source)
+    )
+    return SupportLevel(level.height, grown)
+
+
 def seen_centre_shift(state: LayoutState, child: InstanceId, moved: NDArray, face: Polygon) -> NDArray[np.float64]:
     """Horizontal step (dx, dy) (m) putting the bounding-box centre of ``moved`` (the child's world vertices
     [v, 3] at its inherited, levelled pose) back over where it was registered, or over the point of the
@@ -285,6 +343,12 @@ def compile_support(
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
     # the child's registered centre is the evidence of where it stands (evidence.py), not where its
     # parent's corrections carried it; an exact shape's whole footprint then goes onto the face
+    seen = state.objects[child].world_vertices()
+    seen_c = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+    if parent_generated and not obj.exact_shape and not level.polygon.contains(Point(seen_c[0], seen_c[1])):
+        grown = extend_under_child(state, parent, child, level)
+        if grown is not None:
+            level, board, evidence = grown, grown, "the parent's observed points under the child"
     shift, how = seen_centre_shift(state, child, moved, level.polygon), "registered centre on face"
     if obj.exact_shape:
         seated = footprint(apply(translation([shift[0], shift[1], 0.0]) @ correction @ pose, obj.vertices))

@@ -2,11 +2,11 @@
 
 near-wall snap: large floor objects whose back lies within ``near_wall_distance`` of a wall and whose
     nearest horizontal axis is within ``auto_wall_snap_rotation_deg`` of the wall normal are turned
-    square to the wall and moved to ``wall_collision_margin`` from it (at most
-    ``auto_wall_snap_translation`` m).
+    square to the wall and moved to ``wall_contact_gap`` from it (at most ``auto_wall_snap_translation`` m;
+    a gap within ``wall_collision_margin`` is contact and is kept).
 outside repair: an object whose footprint leaves the floor polygon (beyond ``containment_tolerance``)
     is moved by the smallest translation that puts it back inside the polygon shrunk by
-    ``wall_collision_margin`` (wall-mounted objects: the polygon itself).
+    ``wall_contact_gap`` (wall-mounted objects: the polygon itself).
 bed-wall: beds (``bed_labels``) get the same wall snap with the distance limit raised to
     ``auto_wall_snap_translation``.
 cabinet corner: cabinets (``cabinet_labels``) within ``cabinet_corner_translation`` of two
@@ -43,8 +43,17 @@ def _overlaps_segment(wall: Wall, verts: np.ndarray) -> bool:
     return bool(along.max() > 0.0 and along.min() < wall.length)
 
 
+def contact_push(gap: float, margin: float, contact_gap: float) -> float:
+    """Move (m, along the wall's inward normal) of an object whose back is ``gap`` m in front of a wall
+    (negative: through it): none when the gap is within [0, ``margin``] (contact), else to ``contact_gap``
+    (the smallest correction that makes contact, not a step to the margin)."""
+    if 0.0 <= gap <= margin:
+        return 0.0
+    return contact_gap - gap
+
+
 def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float, max_move: float, stage: str) -> bool:
-    """Turn object i square to its nearest wall and put it ``wall_collision_margin`` from it."""
+    """Turn object i square to its nearest wall and put it in contact with it (``contact_push``)."""
     cfg, room = state.config, state.room
     if i in state.unfit:
         return False
@@ -72,8 +81,7 @@ def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float,
     registered = -float(wall.distance(state.objects[i].world_vertices()).min())
     if gap >= 0.0 and completion_crossing(state, i, -new_gap, registered):
         new_gap = 0.0  # generated asset: deep penetration with the centre in front is completion (evidence.py)
-    # a gap already inside [0, margin] is contact: keep it; otherwise close (or open) it to the margin
-    push = float(np.clip(new_gap, 0.0, cfg.wall_collision_margin)) - new_gap
+    push = contact_push(new_gap, cfg.wall_collision_margin, cfg.wall_contact_gap)
     if abs(push) > max_move:
         state.skip(i, stage, f"wall snap needs {abs(push):.3f} m > {max_move} m")
         return False
@@ -140,8 +148,8 @@ def cabinet_corner(state: LayoutState) -> None:
             continue
         (g1, w1), (g2, w2) = pair
         n = np.stack([w1.normal[:2], w2.normal[:2]])
-        margin = cfg.wall_collision_margin
-        step2 = np.linalg.solve(n, [np.clip(g1, 0.0, margin) - g1, np.clip(g2, 0.0, margin) - g2])
+        margin, gap = cfg.wall_collision_margin, cfg.wall_contact_gap
+        step2 = np.linalg.solve(n, [contact_push(g1, margin, gap), contact_push(g2, margin, gap)])
         step = np.array([step2[0], step2[1], 0.0])
         if np.linalg.norm(step) > cfg.cabinet_corner_translation:
             state.skip(i, "cabinet corner", f"corner needs {np.linalg.norm(step):.3f} m")
@@ -151,11 +159,12 @@ def cabinet_corner(state: LayoutState) -> None:
 
 
 def containment_region(state: LayoutState, i: InstanceId):
-    """Where object i's footprint must lie: the polygon for wall-mounted objects, else the inset polygon."""
+    """Where object i's footprint must lie: the polygon for wall-mounted objects, else the polygon shrunk by
+    ``wall_contact_gap``."""
     room = state.room
     if i in state.wall_of:
         return room.polygon
-    return inner_polygon(room, state.config.wall_collision_margin)
+    return inner_polygon(room, state.config.wall_contact_gap)
 
 
 def is_outside(state: LayoutState, i: InstanceId) -> bool:

@@ -2,7 +2,9 @@
 
 Stages, in order: relational layer (floor snap, wall resolution, wall attachment and object support, all
 by propagation in topological order), room/wall repair (near-wall snap, outside repair, bed-wall,
-cabinet corner, then generated children re-seated on their parents' faces), then depenetration and a last containment check. ``AttachmentConfig.stop_after`` ends
+cabinet corner, then generated children re-seated on their parents' faces), then depenetration and a last containment check,
+and (after the branches are merged) each generated object's step back toward its registered place as far as
+its contacts allow (``restore.py``). ``AttachmentConfig.stop_after`` ends
 the run after 'relations' or 'repair' (the ablation of the paper's Table 3(c)).
 
 Dual attachment (``dual_attachment``): the wall-aware branch uses every edge and the wall refinements;
@@ -39,9 +41,10 @@ from rescene_core.assembly.refine import (
     outside_repair,
     reseat_children,
 )
+from rescene_core.assembly.restore import restore_toward_evidence
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.trim import cut_overlaps, room_cuts, trimmed
+from rescene_core.assembly.trim import cut_overlaps, room_cuts, top_cuts, trimmed
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
@@ -195,6 +198,10 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     cuts = {i: room_cuts(obj, room) for i, obj in valid.items()} if config.trim_completions else {}
     valid = {i: trimmed(obj, cuts.get(i, [])) for i, obj in valid.items()}
     forest = build_forest(graph, set(valid))
+    if config.trim_completions:
+        for i, cut in top_cuts(valid, forest, room).items():
+            cuts.setdefault(i, []).append(cut)
+            valid[i] = trimmed(valid[i], [cut])
     base = LayoutState(valid, forest, room, config)
     for i in sorted(cuts):
         for cut in cuts[i]:
@@ -214,6 +221,8 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         final = choose_branches(wall_state, floor_state, world)
     else:
         final = wall_state
+    if config.restore_toward_evidence and config.stop_after == "full":
+        restore_toward_evidence(final, world)
     if config.trim_completions and config.stop_after == "full":
         cut_overlaps(final, world)
     add_bases(final)

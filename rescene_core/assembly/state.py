@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -102,6 +104,22 @@ class LayoutState:
             self.delta[j] = correction @ self.delta[j]
             self._version[j] += 1
         self.log(i, stage, rule, transform=correction, moved=[int(j) for j in moved], **info)
+
+    @contextmanager
+    def trial(self, i: InstanceId, correction: NDArray) -> Iterator[list[InstanceId]]:
+        """Apply the world-frame ``correction`` [4, 4] to object i and its descendants for the duration of the
+        block (yields them), then undo it; nothing is logged."""
+        moved = self.forest.subtree(i)
+        saved = {j: self.delta[j] for j in moved}
+        for j in moved:
+            self.delta[j] = correction @ self.delta[j]
+            self._version[j] += 1
+        try:
+            yield moved
+        finally:
+            for j in moved:
+                self.delta[j] = saved[j]
+                self._version[j] += 1
 
     def set_delta(self, i: InstanceId, delta: NDArray, stage: str, rule: str, **info: Any) -> None:
         """Set Delta T_i directly (propagation), logging the change."""

@@ -28,12 +28,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.graph import Forest
 from rescene_core.assembly.objects import AssemblyObject
 from rescene_core.assembly.room import Room
 from rescene_core.assembly.state import LayoutState
 from rescene_core.geometry.completion import cut_mesh
 from rescene_core.geometry.sim3 import apply, inverse
-from rescene_core.records import Completion, CompletionKind, InstanceId
+from rescene_core.records import Completion, CompletionKind, InstanceId, Relation, Root
 
 TRIM_MARGIN = 0.01
 """How far (m) a mesh must reach beyond a boundary, and beyond its own points, to be cut."""
@@ -92,6 +93,73 @@ def room_cuts(obj: AssemblyObject, room: Room) -> list[Completion]:
         )
         for origin, normal, what in cuts
     ]
+
+
+TOP_BIN = 0.02
+"""Height bin (m) of a parent's points when its observed top is looked for."""
+TOP_MIN_SHARE = 0.02
+"""The observed top is the upper edge of the highest bin holding this share of the parent's points (and at
+least MIN_POINTS): bleed from what stands on it is sparse, a seen top surface is dense."""
+TOP_WINDOW = 0.05
+"""A parent seen more than this (m) above where its children stand has more than a top there (shelves)."""
+
+
+def seen_top(heights: NDArray) -> float | None:
+    """Observed top (m above the floor) of points at ``heights`` [n] (TOP_MIN_SHARE), or None."""
+    if len(heights) < MIN_POINTS:
+        return None
+    edges = np.arange(float(heights.min()), float(heights.max()) + TOP_BIN, TOP_BIN)
+    if len(edges) < 2:
+        return float(heights.max())
+    counts, edges = np.histogram(heights, bins=edges)
+    dense = np.flatnonzero(counts >= max(MIN_POINTS, TOP_MIN_SHARE * len(heights)))
+    return float(edges[dense[-1] + 1]) if dense.size else None
+
+
+def top_cuts(objects: dict[InstanceId, AssemblyObject], forest: Forest, room: Room) -> dict[InstanceId, Completion]:
+    """Cuts of generated parents taller than what stands on them and what was seen of them, at the registered
+    poses.
+
+    A single-view completion is often too tall (a nightstand 15 cm taller than it is). Its children were
+    registered on their own points standing on the real top, so the solver lifted them onto the invented one.
+    When every child resting on a generated parent was registered with its bottom more than TRIM_MARGIN below
+    the parent's mesh top, and the parent's observed top (``seen_top``) lies at most TOP_WINDOW above the
+    highest of those bottoms, the mesh is cut at the higher of that bottom and the observed top, keeping the
+    side below; not when the cut would keep less than MIN_KEPT_SHARE of its height. Children registered above
+    the mesh top do not count (they stand on something else, or float). Returns parent -> ``cut`` completion
+    (asset frame)."""
+    children: dict[InstanceId, list[InstanceId]] = {}
+    for child, edge in forest.edges.items():
+        if edge.relation is Relation.RESTS_ON and not isinstance(edge.parent, Root) and edge.parent in objects:
+            children.setdefault(InstanceId(edge.parent), []).append(child)
+    out = {}
+    for parent, kids in sorted(children.items()):
+        obj = objects[parent]
+        if obj.exact_shape or obj.points is None or len(obj.points) < MIN_POINTS:
+            continue
+        verts = obj.world_vertices()
+        heights = room.floor_distance(verts)
+        top, low = float(heights.max()), float(heights.min())
+        bottoms = [float(room.floor_distance(objects[k].world_vertices()).min()) for k in kids]
+        bottoms = [b for b in bottoms if b <= top + TOP_WINDOW]
+        if not bottoms or max(bottoms) >= top - TRIM_MARGIN:
+            continue  # a child stands on the top
+        observed = seen_top(room.floor_distance(np.asarray(obj.points, np.float64)))
+        if observed is None or observed > max(bottoms) + TOP_WINDOW:
+            continue
+        level = max(max(bottoms), observed)
+        if top - level <= TRIM_MARGIN or level - low < MIN_KEPT_SHARE * (top - low):
+            continue
+        origin = verts[int(np.argmax(heights))] - (top - level) * room.up
+        out[parent] = cut_plane(
+            parent,
+            obj.world_from_asset,
+            origin,
+            -room.up,
+            f"the generated mesh reaches {top - level:.2f} m above where its children stand and its points end: "
+            "cut there",
+        )
+    return out
 
 
 def cut_plane(

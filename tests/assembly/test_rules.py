@@ -51,8 +51,9 @@ def test_floor_snap_projects_footprint_into_the_room():
     objects = moved(objects, 6, translation([0.5, -0.4, 0.1]))  # through the south-east corner
     layout = attach(objects, graph, shell, AttachmentConfig(stop_after="relations"))
     verts = objects[InstanceId(6)].world_vertices(layout.world_from_asset[InstanceId(6)])
-    assert verts[:, 0].max() <= 4.0 - CFG.wall_collision_margin + 1e-6
-    assert verts[:, 1].min() >= CFG.wall_collision_margin - 1e-6
+    # the smallest step inside: the footprint ends at the contact gap, not at the collision margin
+    assert verts[:, 0].max() == pytest.approx(4.0 - CFG.wall_contact_gap, abs=1e-6)
+    assert verts[:, 1].min() == pytest.approx(CFG.wall_contact_gap, abs=1e-6)
 
 
 def test_wall_mount_makes_back_coplanar_and_parallel():

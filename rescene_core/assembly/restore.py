@@ -1,0 +1,134 @@
+"""Back toward the evidence: the last stage returns each generated object toward where the capture saw it,
+as far as its contacts and the scene allow.
+
+The rules correct an object by closed-form steps, each right for the constraint it serves: a footprint step
+inside the room, a snap to a wall, a push out of a neighbour, and every move of its parent carried along.
+Together they can overshoot: a push of 4 cm per iteration ends a centimetre past the contact it sought, a
+book stack follows its bookshelf's push although its own points did not move. An object's registered place
+is evidence (it was registered on its own points); a correction beyond what its constraints need moves it
+away from that evidence. So after depenetration, per generated object with points (parents before children,
+``PASSES`` times), the horizontal step from its bounding-box centre to its registered one is tried at the
+fractions ``FRACTIONS``, whole and, for an object in contact with a wall, along that wall only; the first
+that keeps every constraint is taken:
+
+* no colliding pair with a non-related object that it (or what it carries) did not have already;
+* the footprint stays inside the room (``refine.is_outside``);
+* every wall contact stays one: a gap within ``wall_collision_margin`` stays within it;
+* a child resting on an object keeps its footprint centre over a support level of its parent at its
+  bottom's height (``SUPPORT_HEIGHT_TOLERANCE``), the parent's mesh faces and its support planes.
+
+Heights and orientations stay as the rules made them, so floor and support contacts hold. Exact shapes (the
+ground-truth meshes of the benchmark's perturbed start) are not moved: their registered pose is the
+perturbation, not evidence.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import Point
+
+from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.compile_support import MIN_FACE_SHARE, support_levels
+from rescene_core.assembly.refine import is_outside
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import translation
+from rescene_core.records import InstanceId, Relation, Root
+
+FRACTIONS = (1.0, 0.75, 0.5, 0.25)
+"""Fractions of the step back to the registered centre tried, largest first."""
+PASSES = 2
+"""Passes over the objects (a step taken frees space another object's step needs)."""
+MIN_STEP = 0.002
+"""Shortest step (m) worth taking."""
+SUPPORT_HEIGHT_TOLERANCE = 0.02
+"""A support level carries a child when it lies within this distance (m) of the child's bottom."""
+
+
+def _wall_contacts(state: LayoutState, i: InstanceId) -> list:
+    """Walls object i is in contact with: its gap to them within [0, ``wall_collision_margin``] (a gap may be
+    slightly negative, the mesh touching the wall's plane), facing its segment."""
+    verts = state.vertices(i)
+    out = []
+    for wall in state.room.walls:
+        along = wall.along(verts)
+        if along.max() <= 0.0 or along.min() >= wall.length:
+            continue
+        if float(wall.distance(verts).min()) <= state.config.wall_collision_margin:
+            out.append(wall)
+    return out
+
+
+def _keeps_walls(state: LayoutState, i: InstanceId, walls: list) -> bool:
+    verts = state.vertices(i)
+    return all(float(wall.distance(verts).min()) <= state.config.wall_collision_margin for wall in walls)
+
+
+def _supported(state: LayoutState, child: InstanceId) -> bool:
+    """Whether ``child``'s footprint centre lies over a support level of its object parent at its bottom."""
+    edge = state.forest.edges.get(child)
+    if edge is None or isinstance(edge.parent, Root) or edge.relation is not Relation.RESTS_ON:
+        return True
+    fp = state.footprint(child)
+    bottom = float(state.room.floor_distance(state.vertices(child)).min())
+    centre = fp.centroid
+    smallest = MIN_FACE_SHARE * fp.area if not state.objects[InstanceId(edge.parent)].exact_shape else 0.0
+    return any(
+        abs(level.height - bottom) <= SUPPORT_HEIGHT_TOLERANCE
+        and level.polygon.area >= smallest
+        and level.polygon.contains(Point(centre.x, centre.y))
+        for level in support_levels(state, InstanceId(edge.parent))
+    )
+
+
+def _steps(state: LayoutState, i: InstanceId, walls: list) -> list[NDArray[np.float64]]:
+    """Candidate horizontal world steps [3] back toward the registered centre, longest first."""
+    seen = state.objects[i].world_vertices()
+    target = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+    step = target - state.centre(i)
+    up = state.room.up
+    step = step - (step @ up) * up
+    directions = [step]
+    for wall in walls:  # along the wall only: the part of the step that keeps the contact
+        along = (step @ wall.tangent) * wall.tangent
+        directions.append(along)
+    out = []
+    for d in directions:
+        if float(np.linalg.norm(d)) < MIN_STEP:
+            continue
+        out.extend(f * d for f in FRACTIONS if float(np.linalg.norm(f * d)) >= MIN_STEP)
+    return out
+
+
+def restore_toward_evidence(state: LayoutState, world: CollisionWorld, stage: str = "back toward evidence") -> int:
+    """Run the stage (module docstring) in place; returns the number of steps taken."""
+    order = list(state.forest.edges) + [i for i in state.objects if i not in state.forest.edges]
+    taken = 0
+    for _ in range(PASSES):
+        for i in order:
+            obj = state.objects[i]
+            if i in state.unfit or obj.exact_shape or obj.points is None or len(obj.points) == 0:
+                continue
+            walls = _wall_contacts(state, i)
+            steps = _steps(state, i, walls)
+            if not steps:
+                continue
+            carried = state.forest.subtree(i)
+            poses = {j: state.pose(j) for j in state.objects}
+            before = set(world.colliding_pairs(poses, skip=state.forest.related, only=carried))
+            outside = is_outside(state, i)
+            for step in steps:
+                with state.trial(i, translation(step)) as moved:
+                    poses.update({j: state.pose(j) for j in moved})
+                    ok = (
+                        (outside or not is_outside(state, i))
+                        and _keeps_walls(state, i, walls)
+                        and _supported(state, i)
+                        and set(world.colliding_pairs(poses, skip=state.forest.related, only=carried)) <= before
+                    )
+                poses.update({j: state.pose(j) for j in carried})
+                if ok:
+                    state.move(i, translation(step), stage, "back toward registered place", step_m=step)
+                    taken += 1
+                    break
+    return taken

@@ -1,0 +1,128 @@
+"""The smallest correction: generated objects step back toward where they were registered as far as their
+contacts allow, a parent's top grows under a child seen off it, and a parent taller than what stands on it
+is cut where its children stand."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from rescene_core.assembly import attach
+from rescene_core.assembly.collision import CollisionWorld
+from rescene_core.assembly.graph import build_forest
+from rescene_core.assembly.restore import restore_toward_evidence
+from rescene_core.assembly.room import room_from_shell
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.transforms import translation
+from rescene_core.bench.assembly import metric_objects, visual_objects
+from rescene_core.config import AttachmentConfig
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.records import CompletionKind, Edge, InstanceId, Relation, Root, SceneGraph
+
+A, B, T, L = InstanceId(1), InstanceId(2), InstanceId(3), InstanceId(4)
+
+
+def _seen(obj, rng, n=400):
+    """``obj`` with points sampled in its registered mesh box (generated, so the points are its evidence)."""
+    v = obj.world_vertices()
+    return replace(obj, points=rng.uniform(v.min(axis=0), v.max(axis=0), (n, 3)), exact_shape=False)
+
+
+def _state(objects, edges=()):
+    graph = SceneGraph(tuple(edges))
+    room = room_from_shell(rect_room())
+    return LayoutState(objects, build_forest(graph, set(objects)), room, AttachmentConfig()), CollisionWorld(objects)
+
+
+def test_step_back_stops_where_a_neighbour_begins():
+    rng = np.random.default_rng(0)
+    a = _seen(box_object(1, "box", (0.4, 0.4, 0.4), placed(1.0, 2.0)), rng)
+    b = box_object(2, "box", (0.4, 0.4, 0.4), placed(0.85, 2.0))  # overlaps a's registered place
+    state, world = _state({A: a, B: b})
+    state.move(A, translation([0.6, 0.0, 0.0]), "test", "pushed")
+    restore_toward_evidence(state, world)
+    # the whole step (x 1.0) and three quarters of it (1.15) collide with b; half of it (1.3) is free
+    assert state.centre(A)[0] == pytest.approx(1.3, abs=1e-6)
+    assert not world.colliding_pairs({i: state.pose(i) for i in state.objects})
+    assert state.centre(B)[0] == pytest.approx(0.85)  # an exact shape's registered pose is not evidence
+
+
+def test_step_back_keeps_a_wall_contact():
+    rng = np.random.default_rng(1)
+    a = _seen(box_object(1, "cabinet", (0.4, 0.4, 0.8), placed(3.5, 2.0)), rng)
+    state, world = _state({A: a})
+    state.move(A, translation([0.3 - 0.001, 0.3, 0.0]), "test", "snapped")  # back 1 mm from the x = 4 wall
+    restore_toward_evidence(state, world)
+    centre = state.centre(A)
+    assert centre[1] == pytest.approx(2.0, abs=1e-6)  # along the wall: all the way back
+    assert centre[0] == pytest.approx(3.799, abs=1e-6)  # across it: the contact stays
+
+
+def _table_and_lamp(lamp_x: float, table_points_half_width: float):
+    """A generated 0.6 m table (top at 0.7 m) whose points span +-``table_points_half_width`` m, and a
+    generated lamp registered on the table's top at x = ``lamp_x``."""
+    rng = np.random.default_rng(2)
+    table = box_object(3, "table", (0.6, 0.6, 0.7), placed(2.0, 2.0), exact_shape=False)
+    w = table_points_half_width
+    top = np.c_[rng.uniform(2.0 - w, 2.0 + w, 800), rng.uniform(1.7, 2.3, 800), rng.uniform(0.69, 0.7, 800)]
+    table = replace(table, points=top)
+    lamp = _seen(box_object(4, "table lamp", (0.2, 0.2, 0.4), placed(lamp_x, 2.0, 0.7)), rng)
+    graph = SceneGraph((Edge(T, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(L, Relation.RESTS_ON, T, 0.9)))
+    return {T: table, L: lamp}, graph, rect_room()
+
+
+def test_a_top_too_small_grows_under_a_child_seen_beyond_it():
+    objects, graph, shell = _table_and_lamp(lamp_x=2.36, table_points_half_width=0.45)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    lamp = objects[L].world_vertices(layout.world_from_asset[L])
+    assert 0.5 * (lamp[:, 0].min() + lamp[:, 0].max()) == pytest.approx(2.36, abs=1e-3)  # where it was seen
+    assert lamp[:, 2].min() == pytest.approx(0.7, abs=0.005)
+    grown = [c for c in layout.completions()[int(T)] if c.kind is CompletionKind.SUPPORT_PLANE]
+    assert len(grown) == 1 and "grown under child 4" in grown[0].source
+    m = structural_metrics(metric_objects(objects, layout), layout.world_from_asset, graph, shell)
+    assert m["support_contact_pass"] == 1.0
+
+
+def test_without_the_parent_seen_under_it_the_child_goes_onto_the_face():
+    objects, graph, shell = _table_and_lamp(lamp_x=2.36, table_points_half_width=0.3)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    lamp = objects[L].world_vertices(layout.world_from_asset[L])
+    assert 0.5 * (lamp[:, 0].min() + lamp[:, 0].max()) == pytest.approx(2.3, abs=1e-3)  # the face's edge
+    assert int(T) not in layout.completions()
+
+
+def _nightstand_and_lamp(points_top: float):
+    """A generated nightstand mesh 0.75 m tall whose points (a dense top included) end at ``points_top``, and
+    a generated lamp registered standing at 0.6 m."""
+    rng = np.random.default_rng(3)
+    stand = box_object(3, "nightstand", (0.5, 0.4, 0.75), placed(2.0, 2.0), exact_shape=False)
+    sides = np.c_[rng.uniform(1.75, 2.25, 600), np.full(600, 1.8), rng.uniform(0.0, points_top, 600)]
+    top = np.c_[
+        rng.uniform(1.75, 2.25, 400), rng.uniform(1.8, 2.2, 400), rng.uniform(points_top - 0.01, points_top, 400)
+    ]
+    stand = replace(stand, points=np.vstack([sides, top]))
+    lamp = _seen(box_object(4, "table lamp", (0.2, 0.2, 0.4), placed(2.0, 2.0, 0.6)), rng)
+    graph = SceneGraph((Edge(T, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(L, Relation.RESTS_ON, T, 0.9)))
+    return {T: stand, L: lamp}, graph, rect_room()
+
+
+def test_a_parent_taller_than_what_stands_on_it_is_cut_there():
+    objects, graph, shell = _nightstand_and_lamp(points_top=0.6)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    cuts = [c for c in layout.completions()[int(T)] if c.kind is CompletionKind.CUT]
+    assert len(cuts) == 1
+    stand = visual_objects(objects, layout)[T].world_vertices(layout.world_from_asset[T])
+    assert stand[:, 2].max() == pytest.approx(0.6, abs=0.005)
+    lamp = objects[L].world_vertices(layout.world_from_asset[L])
+    assert lamp[:, 2].min() == pytest.approx(0.6, abs=0.005)  # not lifted 15 cm onto the invented top
+    m = structural_metrics(metric_objects(objects, layout), layout.world_from_asset, graph, shell)
+    assert m["support_contact_pass"] == 1.0
+
+
+def test_a_parent_seen_up_to_its_top_is_not_cut():
+    objects, graph, shell = _nightstand_and_lamp(points_top=0.75)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    assert not [c for c in layout.completions().get(int(T), []) if c.kind is CompletionKind.CUT]
+    lamp = objects[L].world_vertices(layout.world_from_asset[L])
+    assert lamp[:, 2].min() == pytest.approx(0.75, abs=0.005)
