@@ -223,5 +223,8 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
         refused = evidence_refuses(state, child, correction @ state.pose(child))
         if refused is not None:  # the relational layer refused this child's face for the same reason
             state.skip(child, stage, refused)
+            # nor does it follow its parent's repairs: it stays where it was seen
+            back = state.objects[child].world_from_asset @ np.linalg.inv(state.pose(child))
+            state.move(child, back, stage, "keep registered pose", parent=int(edge.parent))
             continue
         state.move(child, correction, stage, "back on parent's face", parent=int(edge.parent))

@@ -97,9 +97,11 @@ def room_cuts(obj: AssemblyObject, room: Room) -> list[Completion]:
 
 TOP_BIN = 0.02
 """Height bin (m) of a parent's points when its observed top is looked for."""
-TOP_MIN_SHARE = 0.02
-"""The observed top is the upper edge of the highest bin holding this share of the parent's points (and at
-least MIN_POINTS): bleed from what stands on it is sparse, a seen top surface is dense."""
+TOP_MIN_SHARE = 0.2
+"""The observed top is the upper edge of the highest bin holding at least this share of the fullest bin's
+points (and TOP_MIN_COUNT): bleed from what stands on the parent is sparse; a seen top surface is dense, and
+a side panel seen up to the top spreads its points evenly over every height."""
+TOP_MIN_COUNT = 3
 TOP_WINDOW = 0.05
 """A parent seen more than this (m) above where its children stand has more than a top there (shelves)."""
 
@@ -112,7 +114,7 @@ def seen_top(heights: NDArray) -> float | None:
     if len(edges) < 2:
         return float(heights.max())
     counts, edges = np.histogram(heights, bins=edges)
-    dense = np.flatnonzero(counts >= max(MIN_POINTS, TOP_MIN_SHARE * len(heights)))
+    dense = np.flatnonzero(counts >= max(TOP_MIN_COUNT, TOP_MIN_SHARE * counts.max()))
     return float(edges[dense[-1] + 1]) if dense.size else None
 
 
