@@ -273,6 +273,11 @@ def extend_under_child(
     return SupportLevel(level.height, grown)
 
 
+TOP_FIT_MARGIN = 0.02
+"""A generated parent's top farther than this (m) from where its child was registered standing is replaced
+by the surface its observed points show there, if any (``board_from_points``)."""
+
+
 def seen_centre_shift(state: LayoutState, child: InstanceId, moved: NDArray, face: Polygon) -> NDArray[np.float64]:
     """Horizontal step (dx, dy) (m) putting the bounding-box centre of ``moved`` (the child's world vertices
     [v, 3] at its inherited, levelled pose) back over where it was registered, or over the point of the
@@ -340,6 +345,17 @@ def compile_support(
                 )
             }
     level = min(feasible, key=lambda lv: abs(lv.height - seen_bottom)) if feasible else levels[0]
+    if (
+        parent_generated
+        and not obj.exact_shape
+        and board is None
+        and abs(level.height - seen_bottom) > TOP_FIT_MARGIN
+        and level.height >= levels[0].height - cfg.support_level_tolerance
+    ):
+        # a generated top too high or too low where the parent's points show the surface the child stands on
+        seen_board = board_from_points(state, parent, child)
+        if seen_board is not None and abs(seen_board.height - seen_bottom) < abs(level.height - seen_bottom):
+            level, board, evidence = seen_board, seen_board, "the parent's observed points at its top"
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
     # the child's registered centre is the evidence of where it stands (evidence.py), not where its
     # parent's corrections carried it; an exact shape's whole footprint then goes onto the face

@@ -126,3 +126,19 @@ def test_a_parent_seen_up_to_its_top_is_not_cut():
     assert not [c for c in layout.completions().get(int(T), []) if c.kind is CompletionKind.CUT]
     lamp = objects[L].world_vertices(layout.world_from_asset[L])
     assert lamp[:, 2].min() == pytest.approx(0.75, abs=0.005)
+
+
+def test_a_top_too_low_gives_way_to_the_surface_its_points_show():
+    # the generated nightstand is 0.65 m tall; its points show its top at 0.70 m, where the lamp stands
+    rng = np.random.default_rng(4)
+    stand = box_object(3, "nightstand", (0.5, 0.4, 0.65), placed(2.0, 2.0), exact_shape=False)
+    sides = np.c_[rng.uniform(1.75, 2.25, 600), np.full(600, 1.8), rng.uniform(0.0, 0.70, 600)]
+    top = np.c_[rng.uniform(1.75, 2.25, 400), rng.uniform(1.8, 2.2, 400), rng.uniform(0.69, 0.70, 400)]
+    stand = replace(stand, points=np.vstack([sides, top]))
+    lamp = _seen(box_object(4, "table lamp", (0.2, 0.2, 0.4), placed(2.0, 2.0, 0.70)), rng)
+    graph = SceneGraph((Edge(T, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(L, Relation.RESTS_ON, T, 0.9)))
+    layout = attach({T: stand, L: lamp}, graph, rect_room(), AttachmentConfig())
+    bottom = lamp.world_vertices(layout.world_from_asset[L])[:, 2].min()
+    assert bottom == pytest.approx(0.70, abs=0.01)  # not dropped 5 cm onto the generated top
+    planes = [c for c in layout.completions()[int(T)] if c.kind is CompletionKind.SUPPORT_PLANE]
+    assert len(planes) == 1
