@@ -7,32 +7,46 @@ in ``scene/export_report.json`` under the object.
 * **Clipping.** A CoACD or hull piece is cut to the mesh's extent along its asset axes, the world's up and
   down and 24 horizontal world directions: a decomposition never reaches past the mesh it approximates in
   those directions. (CoACD's excess on the benchmark scenes lies inside that extent, where a piece fills a
-  concavity: the seats below handle the part of it that matters, under a child.)
+  concavity: the seats below handle the part of it under a child, rescene_core/export/separate.py the part
+  where a neighbour stands.)
 * **Completions** (``ExportObject.completions``, found by attachment in the object's observed points): a
   ``support plane`` becomes a board ``BOARD_THICKNESS`` thick below the plane
   (``geometry.completion.completion_solid``), a ``base`` the convex hull of its points. Collision only, no
-  visual.
+  visual. Attachment builds both within the mesh's footprint; a later cut or correction of the mesh can
+  leave one reaching past it (into a neighbour's space), so each is cut to the mesh's horizontal extent.
 * **Hollow parents.** A generated parent with a support plane inside its mesh (more than ``INSIDE_MARGIN``
-  below its top) and a child standing in it would push the child out: its solid pieces fill the shelf's
-  compartments. Its pieces become a shell of its asset-frame bounding box (bottom, top and side panels
-  ``PANEL_THICKNESS`` thick, one vertical side open) plus the boards. The open side: the side opposite the
-  one that backs onto a wall (faces it, within ``BACK_WALL_MAX`` of its plane and its segment), else the
-  side facing the floor polygon's centre (into the room), else (no room) the side nearest the children's
-  centre. A hollow parent's seats are not cut: its boards are at its children's feet already.
-* **Seats.** A convex piece fills the concavities of the part it covers (CoACD at threshold 0.05 fills
-  dips of centimetres), so a child the layout put on its parent's mesh can start inside its parent's
-  pieces. When the child's bottom is on the mesh (the parent's mesh rises less than ``SEAT_MESH_TOLERANCE``
-  above it under the child's foot, its vertices within ``SEAT_FOOT`` of its lowest), the parent's pieces
-  are cut down to the child's bottom over the foot's box: each piece is split by the box's four vertical planes and the part inside is cut at the
-  child's bottom (all convex). A child inside its parent's mesh is the layout's fault and is left as it is.
+  below its top) and a child (or a child's child) standing in it would push the child out: its solid
+  pieces fill the shelf's compartments. Its pieces become a shell of its asset-frame bounding box (bottom,
+  top and side panels ``PANEL_THICKNESS`` thick, one vertical side open) plus the boards, cut to the mesh's
+  extent like a decomposition (a turned mesh's box reaches past it). The open side: the side opposite the
+  one that backs onto a wall (faces it, within ``BACK_WALL_MAX`` of its plane and its segment); when two
+  sides back onto walls (a corner) or none does, the free side facing the floor polygon's centre (into the
+  room); else (no room) the side nearest the children's centre.
+* **Seats.** A child (and its children) stands where its parent's pieces may be: a convex piece fills the
+  concavities of the part it covers (CoACD at threshold 0.05 fills dips of centimetres), a hollow shell's
+  panels are its mesh's box (a generated shelf 8 cm deep under books 30 cm deep). The parent's pieces are
+  carved out of the child's prism: the smallest rotated rectangle around the child's collider, grown by
+  ``CARVE_MARGIN``, from the child's bottom to its top (``carve``: each piece split by the prism's side
+  planes, the part inside cut at both heights, all convex). Only where the parent's own geometry is not:
+  the parent's mesh rises at most ``SEAT_MESH_TOLERANCE`` above the child's bottom inside the prism (moved
+  in by ``SEAT_INSET``), or the pieces are a hollow shell, or a support plane of the parent lies within
+  ``SUPPORT_MATCH`` of the child's bottom (the layout found an inner shelf there that the mesh lacks). A
+  child inside its parent's mesh otherwise is the layout's fault and is left as it is.
+* **Boards under a child's foot.** A child standing on a support plane of its parent (within
+  ``SUPPORT_MATCH``) whose foot (its points within ``SEAT_FOOT`` of its bottom) reaches past the board gets
+  the board extended under the foot: a slab ``BOARD_THICKNESS`` thick under the foot's rectangle, its top
+  at the child's bottom. The board spans the generated parent's footprint; the capture saw the child
+  standing at that height over its whole foot.
 * **Footings.** A free object resting on something stands on its lowest points. A generated mesh's bottom
   is its generator's invention, often uneven: when the centre of mass (of its collision pieces) is not
   over the polygon of its points within ``CONTACT_BAND`` of the lowest one (shrunk by ``FOOTING_MARGIN``),
   it would rock or tip at once (the centre counted with everything resting on it, at their masses: a table
   carries the monitor at its corner). It then gets a footing: the hull of its vertices in the lowest band of its
   height and of the same vertices on the level of its lowest point, with the band grown (``FOOTING_BANDS``
-  of the height) until the centre is over the footing's bottom. When no band holds it, nothing is added
-  and the report says so.
+  of the height, up to half of it: a generated lamp's head beside its foot) until the centre is over the
+  footing's bottom. When no band holds it, nothing is added and the report says so.
+* **Neighbours** (rescene_core/export/separate.py): pieces of two objects, neither resting on the other,
+  that overlap where neither object's mesh or completions are, are cut apart by a plane between the two.
 """
 
 from __future__ import annotations
@@ -67,12 +81,21 @@ SEAT_MESH_TOLERANCE = 0.02
 """A child whose parent's mesh rises more than this (m) above the child's bottom under its foot (the support
 contact tolerance of the structural metrics) is inside the mesh: its parent's pieces are not cut."""
 SEAT_FOOT = 0.02
-"""A child's foot: its vertices within this height (m) of its lowest one; the seat is cut under them."""
+"""A child's foot: its points within this height (m) of its lowest one; a board under it covers them."""
+SEAT_INSET = 0.01
+"""Parent mesh points within this distance (m) inside the edge of a child's footprint do not count as inside
+the child (a face touching its side)."""
+CARVE_MARGIN = 0.002
+"""A child's prism reaches this far (m) past its collider: faces that touch are not left overlapping."""
+SUPPORT_MATCH = 0.03
+"""A support plane within this distance (m) of a child's bottom is the board the child stands on."""
+MIN_PIECE_VOLUME = 1e-8
+"""A cut piece smaller than this (m^3, a 1 cm x 1 cm x 0.1 mm sliver) is dropped."""
 CONTACT_BAND = 0.001
 """Collider points within this height (m) of the lowest one are the points an object stands on."""
 FOOTING_MARGIN = 0.01
 """The centre of mass must be this far (m) inside the polygon an object stands on."""
-FOOTING_BANDS = (0.02, 0.05, 0.10, 0.15, 0.25)
+FOOTING_BANDS = (0.02, 0.05, 0.10, 0.15, 0.25, 0.35, 0.5)
 """Heights of the footing's band, as fractions of the object's height (the first that holds is used)."""
 CLIP_DIRECTIONS = 24
 """Horizontal world directions (every 15 deg) along which pieces are cut to the mesh's extent."""
@@ -119,8 +142,10 @@ class ColliderEdits:
     completions: list[dict[str, Any]] = field(default_factory=list)
     hollow: dict[str, Any] | None = None
     seats: list[dict[str, Any]] = field(default_factory=list)
+    boards: list[dict[str, Any]] = field(default_factory=list)
     footing: dict[str, Any] | None = None
     clipped_m: float = 0.0
+    separated: list[dict[str, Any]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -128,7 +153,9 @@ class ColliderEdits:
             "completions": self.completions,
             "hollow_shell": self.hollow,
             "seats_cut": self.seats,
+            "boards_under_children": self.boards,
             "footing": self.footing,
+            "separated_from_neighbours": self.separated,
         }
 
 
@@ -158,7 +185,12 @@ def completion_pieces(obj: ExportObject, place: Placement) -> tuple[list[Piece],
         if hull is None:
             entry["collider"] = "none: the solid is flat or degenerate"
         else:
-            pieces.append(hull)
+            # both kinds lie under or inside the mesh's footprint (attachment builds them so); a cut or a later
+            # correction of the mesh can leave them reaching past it, into a neighbour's space
+            clipped, reach = clip_to_mesh(place, [hull], footprint_only=True)
+            if reach > 1e-3:
+                entry["clipped_to_footprint_m"] = round(reach, 4)
+            pieces.append(clipped[0])
         entries.append(entry)
     return pieces, entries
 
@@ -171,6 +203,18 @@ def _children(instance: int, graph: SceneGraph | None) -> list[int]:
         for e in graph.edges
         if e.relation == Relation.RESTS_ON and not isinstance(e.parent, Root) and int(e.parent) == int(instance)
     )
+
+
+def _descendants(instance: int, graph: SceneGraph | None) -> list[int]:
+    """Its children, then theirs (breadth first)."""
+    out: list[int] = []
+    todo = _children(instance, graph)
+    while todo:
+        c = todo.pop(0)
+        if c not in out and c != int(instance):
+            out.append(c)
+            todo += _children(c, graph)
+    return out
 
 
 def hollow_shell(
@@ -193,16 +237,15 @@ def hollow_shell(
     if not inner:
         return None
     lo, hi = place.vertices.min(axis=0), place.vertices.max(axis=0)
+    horizontal = [a for a in range(3) if a != k]
+    level = hi[k] if up[k] > 0 else -lo[k]
     inside = []
     for child in children:
         cv = place.body(child.world(child.vertices))
         bottom = float(cv[:, k].min() if up[k] > 0 else -cv[:, k].max())
-        centre = cv.mean(axis=0)
-        level = hi[k] if up[k] > 0 else -lo[k]
-        horizontal = [a for a in range(3) if a != k]
-        within = all(lo[a] <= centre[a] <= hi[a] for a in horizontal)
-        if within and bottom < level - INSIDE_MARGIN:
-            inside.append(centre)
+        overlaps = all(cv[:, a].min() < hi[a] and cv[:, a].max() > lo[a] for a in horizontal)
+        if overlaps and bottom < level - INSIDE_MARGIN:
+            inside.append(cv.mean(axis=0))
     if not inside:
         return None
     if abs(up[k]) < UPRIGHT_COS:
@@ -221,6 +264,7 @@ def hollow_shell(
         return place.rotation @ e
 
     open_side, reason = None, ""
+    backing: set[tuple[int, int]] = set()
     if shell is not None and shell.walls:
         best = None
         for a, s in sides:
@@ -236,21 +280,26 @@ def hollow_shell(
                 length = float(np.linalg.norm(along))
                 at = float((p[:2] - np.array([x0, y0])) @ along / max(length, 1e-9))
                 on_segment = -BACK_WALL_MAX <= at <= length + BACK_WALL_MAX
-                if on_segment and -BACK_WALL_MAX < gap < BACK_WALL_MAX and (best is None or abs(gap) < abs(best[0])):
-                    best = (gap, (a, -s), wall.id)
-        if best is not None:
+                if on_segment and -BACK_WALL_MAX < gap < BACK_WALL_MAX:
+                    backing.add((a, s))
+                    if best is None or abs(gap) < abs(best[0]):
+                        best = (gap, (a, -s), wall.id)
+        if best is not None and len(backing) == 1:
             open_side = best[1]
             reason = f"opposite the side backing onto wall {best[2]} ({best[0]:.3f} m from it)"
+    free_sides = [side for side in sides if side not in backing] or sides
     if open_side is None and shell is not None and len(shell.floor_polygon) >= 3:
         room_c = np.asarray(shell.floor_polygon, np.float64).mean(axis=0)
         here = place.world(centre_b[None])[0]
         to_room = np.r_[room_c - here[:2], 0.0]
         if np.linalg.norm(to_room) > 1e-6:
-            open_side = max(sides, key=lambda side: float(normal_world(*side) @ to_room))
-            reason = "the side facing the floor polygon's centre (into the room): no wall behind it"
+            open_side = max(free_sides, key=lambda side: float(normal_world(*side) @ to_room))
+            reason = "the side facing the floor polygon's centre (into the room): " + (
+                f"{len(backing)} sides back onto walls (a corner)" if backing else "no wall behind it"
+            )
     if open_side is None:
         kids = np.mean(inside, axis=0) - centre_b
-        open_side = max(sides, key=lambda side: side[1] * kids[side[0]] / max(hi[side[0]] - lo[side[0]], 1e-9))
+        open_side = max(free_sides, key=lambda side: side[1] * kids[side[0]] / max(hi[side[0]] - lo[side[0]], 1e-9))
         reason = "the side nearest the children's centre: no room to face"
     pieces: list[Piece] = []
     t = np.minimum(PANEL_THICKNESS, 0.25 * (hi - lo))
@@ -265,6 +314,7 @@ def hollow_shell(
                 blo[a] = hi[a] - t[a]
             box = trimesh.creation.box(bounds=np.stack([blo, bhi]))
             pieces.append((np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64)))
+    pieces, reach = clip_to_mesh(place, pieces)  # a turned mesh's box reaches past the mesh
     axis = "xyz"[open_side[0]]
     entry = {
         "open_side": f"{'+' if open_side[1] > 0 else '-'}{axis} (asset frame)",
@@ -273,6 +323,7 @@ def hollow_shell(
         "panel_thickness_m": round(float(t.min()), 4),
         "inner_support_planes_m": [round(h, 4) for h in inner],
         "children_inside": len(inside),
+        "clipped_to_extent_m": round(reach, 4),
         "why": "a support plane inside the generated mesh with children standing in it: solid pieces would push "
         "them out",
     }
@@ -297,96 +348,201 @@ def _slice(piece: Piece, normal: NDArray, origin: NDArray) -> Piece | None:
     return _hull(points)
 
 
-def cut_seat(pieces: list[Piece], box_lo: NDArray, box_hi: NDArray, level: float) -> tuple[list[Piece], float]:
-    """Pieces (world-oriented frame: z up) with everything above ``level`` inside the vertical column over
-    the xy box [box_lo, box_hi] removed; returns the pieces and the depth removed (m)."""
+def _ring(points_xy: NDArray, grow: float) -> NDArray[np.float64]:
+    """Counter-clockwise corners [4, 2] of the smallest rotated rectangle around ``points_xy``, grown by
+    ``grow`` (m) on every side."""
+    from shapely.geometry import MultiPoint
+    from shapely.geometry.polygon import orient
+
+    rect = MultiPoint(np.asarray(points_xy, np.float64)).minimum_rotated_rectangle
+    rect = rect.buffer(max(grow, 1e-4), join_style="mitre")
+    return np.asarray(orient(rect, 1.0).exterior.coords, np.float64)[:-1]
+
+
+def _solid(piece: Piece | None) -> bool:
+    return piece is not None and abs(float(trimesh.Trimesh(*piece, process=False).volume)) > MIN_PIECE_VOLUME
+
+
+UP, DOWN = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0])
+
+
+def carve(pieces: list[Piece], ring: NDArray, z_lo: float, z_hi: float) -> tuple[list[Piece], float]:
+    """Pieces (world-oriented frame: z up) with their part inside the vertical prism over the convex polygon
+    ``ring`` [k, 2] (counter-clockwise) between heights ``z_lo`` and ``z_hi`` removed. Each piece is split by
+    the prism's side planes (the parts outside kept) and the part inside cut at both heights (the parts
+    below and above kept): every piece stays convex. Returns the pieces and the largest height (m) removed
+    above ``z_lo``."""
+    ring = np.asarray(ring, np.float64)
+    planes = []
+    for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+        edge = b - a
+        length = float(np.hypot(*edge))
+        if length > 1e-9:  # outward normal of a counter-clockwise edge
+            planes.append((np.array([edge[1], -edge[0], 0.0]) / length, np.array([a[0], a[1], 0.0])))
+    lo, hi = ring.min(axis=0), ring.max(axis=0)
     out: list[Piece] = []
     removed = 0.0
-    planes = [
-        (np.array([-1.0, 0, 0]), np.array([box_lo[0], 0, 0])),
-        (np.array([1.0, 0, 0]), np.array([box_hi[0], 0, 0])),
-        (np.array([0, -1.0, 0]), np.array([0, box_lo[1], 0])),
-        (np.array([0, 1.0, 0]), np.array([0, box_hi[1], 0])),
-    ]
     for piece in pieces:
-        v = piece[0]
-        over = (v[:, 0].min() < box_hi[0]) and (v[:, 0].max() > box_lo[0])
-        over = over and (v[:, 1].min() < box_hi[1]) and (v[:, 1].max() > box_lo[1]) and v[:, 2].max() > level
-        if not over:
+        vlo, vhi = piece[0].min(axis=0), piece[0].max(axis=0)
+        if (vlo[:2] >= hi).any() or (vhi[:2] <= lo).any() or vhi[2] <= z_lo or vlo[2] >= z_hi:
             out.append(piece)
             continue
+        kept: list[Piece] = []
         rest: Piece | None = piece
-        for normal, origin in planes:  # the parts outside the column, then what is left inside it
+        for normal, origin in planes:  # the parts outside the prism, then what is left inside it
+            outside = _slice(rest, normal, origin)  # type: ignore[arg-type]
+            if _solid(outside):
+                kept.append(outside)  # type: ignore[arg-type]
+            rest = _slice(rest, -normal, origin)  # type: ignore[arg-type]
             if rest is None:
                 break
-            outside = _slice(rest, normal, origin)
-            if outside is not None:
-                out.append(outside)
-            rest = _slice(rest, -normal, origin)
-        if rest is not None:
-            removed = max(removed, float(rest[0][:, 2].max()) - level)
-            below = _slice(rest, np.array([0, 0, -1.0]), np.array([0, 0, level]))
-            if below is not None:
-                out.append(below)
+        low, high = np.array([0.0, 0.0, z_lo]), np.array([0.0, 0.0, z_hi])
+        between = None if rest is None else _slice(rest, UP, low)
+        if between is not None and np.isfinite(z_hi):
+            between = _slice(between, DOWN, high)
+        if rest is None or not _solid(between):
+            out.append(piece)  # it only touches the prism
+            continue
+        removed = max(removed, float(between[0][:, 2].max()) - z_lo)  # type: ignore[index]
+        for part in (_slice(rest, DOWN, low), _slice(rest, UP, high) if np.isfinite(z_hi) else None):
+            if _solid(part):
+                kept.append(part)  # type: ignore[arg-type]
+        out.extend(kept)
     return out, removed
 
 
-def _mesh_top_under(place: Placement, lo: NDArray, hi: NDArray) -> float:
-    """Highest world z of the mesh's surface over the xy box [lo, hi] (vertices and face centres sampled)."""
+def cut_seat(pieces: list[Piece], box_lo: NDArray, box_hi: NDArray, level: float) -> tuple[list[Piece], float]:
+    """Pieces (world-oriented frame: z up) with everything above ``level`` inside the vertical column over
+    the xy box [box_lo, box_hi] removed; returns the pieces and the depth removed (m)."""
+    ring = np.array([box_lo, [box_hi[0], box_lo[1]], box_hi, [box_lo[0], box_hi[1]]], np.float64)
+    return carve(pieces, ring, level, np.inf)
+
+
+def _surface_samples(place: Placement) -> NDArray[np.float64]:
+    """World points of the mesh's surface: its vertices, face centres and 4000 area-weighted samples."""
     mesh = trimesh.Trimesh(place.world(place.vertices), place.faces, process=False)
-    pts = np.vstack([mesh.vertices, mesh.triangles_center, mesh.sample(4000, seed=0)])
-    inside = (pts[:, 0] >= lo[0]) & (pts[:, 0] <= hi[0]) & (pts[:, 1] >= lo[1]) & (pts[:, 1] <= hi[1])
-    return float(pts[inside, 2].max()) if inside.any() else -np.inf
+    return np.vstack([mesh.vertices, mesh.triangles_center, mesh.sample(4000, seed=0)])
+
+
+def mesh_overlap(samples: NDArray, mesh: trimesh.Trimesh | None, ring: NDArray, z_lo: float, z_hi: float) -> float:
+    """How high (m) a parent's mesh rises above ``z_lo`` inside a child's prism (``ring`` [k, 2], up to
+    ``z_hi``, its sides moved in by ``SEAT_INSET``): the highest of its surface ``samples`` there, the whole
+    height when the (closed) ``mesh`` contains the prism's centre; 0 when the mesh is not there."""
+    import shapely
+    from shapely.geometry import Polygon
+
+    inner = Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
+    rise = 0.0
+    if not inner.is_empty:
+        z = samples[:, 2]
+        near = (z > z_lo) & (z <= z_hi)
+        sel = near.copy()
+        sel[near] = shapely.contains_xy(inner, samples[near, 0], samples[near, 1])
+        if sel.any():
+            rise = float(z[sel].max()) - z_lo
+    if mesh is not None and mesh.is_watertight:
+        centre = np.r_[np.asarray(Polygon(ring).centroid.coords)[0], 0.5 * (z_lo + z_hi)]
+        if bool(mesh.contains(centre[None])[0]):
+            rise = max(rise, z_hi - z_lo)
+    return rise
+
+
+@dataclass(frozen=True)
+class Seated:
+    """A child (or a child's child) to seat in its parent's pieces: its node, its placement and its collider
+    pieces (body frame); ``direct``: it rests on the parent itself (not on one of the parent's children)."""
+
+    node: str
+    place: Placement
+    pieces: list[Piece]
+    direct: bool
 
 
 def seat_children(
-    parent: Placement, pieces: list[Piece], children: Iterable[tuple[str, Placement]]
-) -> tuple[list[Piece], list[dict[str, Any]]]:
-    """``parent``'s body-frame pieces cut down under each child that starts inside them (see module doc)."""
-    entries = []
-    level_frame = [(parent.rotation @ v.T).T for v, _ in pieces]  # world-oriented, origin at the body
-    work: list[Piece] = [(lv, f) for lv, (_, f) in zip(level_frame, pieces, strict=True)]
-    for node, child in children:
-        cw = child.world(child.vertices)
-        bottom = float(cw[:, 2].min())
+    parent: Placement,
+    pieces: list[Piece],
+    children: Iterable[Seated],
+    supports: Iterable[tuple[float, NDArray]] = (),
+    hollow: bool = False,
+) -> tuple[list[Piece], list[dict[str, Any]], list[dict[str, Any]]]:
+    """``parent``'s body-frame pieces carved where its children stand, and boards under their feet (see the
+    module doc); returns the pieces, the seat entries and the board entries of the export report.
+    ``supports``: the parent's support-plane boards, (world height m, world xy of the board's corners [k, 2]);
+    ``hollow``: its pieces are a shell (``hollow_shell``)."""
+    from shapely.geometry import MultiPoint, Polygon
+
+    boards_xy = [(h, MultiPoint(np.asarray(xy, np.float64)).convex_hull.buffer(1e-3)) for h, xy in supports]
+    entries, boards = [], []
+    off = parent.translation
+    work: list[Piece] = [((parent.rotation @ v.T).T, f) for v, f in pieces]  # world-oriented, origin at the body
+    samples, mesh = None, None
+    for child in children:
+        cw = np.vstack([child.place.world(child.place.vertices)] + [child.place.world(v) for v, _ in child.pieces])
+        bottom, top = float(cw[:, 2].min()), float(cw[:, 2].max())
+        ring = _ring(cw[:, :2], CARVE_MARGIN)
+        local = ring - off[:2]
+        carved, depth = carve(work, local, bottom - off[2], top + CARVE_MARGIN - off[2])
+        board = next((b for b in boards_xy if abs(b[0] - bottom) <= SUPPORT_MATCH), None) if child.direct else None
+        if depth > 1e-4:
+            if samples is None:
+                samples = _surface_samples(parent)
+                mesh = trimesh.Trimesh(parent.world(parent.vertices), parent.faces, process=True)
+            rise = mesh_overlap(samples, mesh, ring, bottom, top)
+            entry: dict[str, Any] = {"child": child.node, "depth_m": round(depth, 4), "mesh_overlap_m": round(rise, 4)}
+            if rise <= SEAT_MESH_TOLERANCE:
+                why = "the parent's convex pieces filled a concavity of its mesh where the child stands"
+            elif hollow:
+                why = "the hollow shell's panels (its mesh's box) run through the child, which the capture saw there"
+            elif board is not None:
+                why = (
+                    f"the child stands on the parent's support plane at {board[0]:.3f} m inside its generated mesh "
+                    "(an inner shelf the mesh lacks)"
+                )
+            else:
+                why = (
+                    f"the parent's mesh reaches {rise:.3f} m above the child's bottom inside the child: the child "
+                    "is inside the mesh (a layout fault), left as it is"
+                )
+                entries.append({**entry, "cut": False, "why": why})
+                continue
+            work = carved
+            entries.append({**entry, "cut": True, "why": why})
         foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
-        lo, hi = foot[:, :2].min(axis=0), foot[:, :2].max(axis=0)
-        off = parent.translation
-        top = max((float(v[:, 2].max()) + off[2] for v, _ in work), default=-np.inf)
-        if top <= bottom + 1e-4:
-            continue
-        mesh_top = _mesh_top_under(parent, lo, hi)
-        if mesh_top > bottom + SEAT_MESH_TOLERANCE:
-            entries.append(
-                {
-                    "child": node,
-                    "cut": False,
-                    "why": f"the parent's mesh rises {mesh_top - bottom:.3f} m above the child's bottom: the "
-                    "child is inside the mesh (a layout fault), left as it is",
-                }
+        fring = _ring(foot[:, :2], 0.0)
+        if board is not None and not Polygon(fring).within(board[1]):  # the foot reaches past the board
+            fring = fring - off[:2]
+            level = bottom - off[2]
+            slab = np.vstack(
+                [np.c_[fring, np.full(len(fring), level)], np.c_[fring, np.full(len(fring), level - BOARD_THICKNESS)]]
             )
-            continue
-        work, removed = cut_seat(work, lo - off[:2], hi - off[:2], bottom - off[2])
-        if removed > 1e-4:
-            entries.append(
-                {
-                    "child": node,
-                    "cut": True,
-                    "depth_m": round(removed, 4),
-                    "why": "the parent's convex pieces filled a concavity of its mesh under the child",
-                }
-            )
-    return [((parent.rotation.T @ v.T).T, f) for v, f in work], entries
+            piece = _hull(slab)
+            if piece is not None:
+                work.append(piece)
+                boards.append(
+                    {
+                        "child": child.node,
+                        "height_m": round(bottom, 4),
+                        "support_plane_m": round(board[0], 4),
+                        "why": "the child was seen standing on the parent's support plane here: the board, "
+                        f"{BOARD_THICKNESS * 100:g} cm thick, reaches under its foot",
+                    }
+                )
+    return [((parent.rotation.T @ v.T).T, f) for v, f in work], entries, boards
 
 
-def clip_to_mesh(place: Placement, pieces: list[Piece]) -> tuple[list[Piece], float]:
+def clip_to_mesh(place: Placement, pieces: list[Piece], footprint_only: bool = False) -> tuple[list[Piece], float]:
     """Pieces cut to the mesh's extent along the asset axes, the world's up and down and ``CLIP_DIRECTIONS``
     horizontal world directions (a discrete oriented polytope of the mesh): a decomposition's piece never
-    reaches past the mesh it approximates in those directions. Returns the pieces and the largest distance
-    (m) a piece reached past them."""
+    reaches past the mesh it approximates in those directions. ``footprint_only``: along the horizontal
+    world directions only (a completion under or inside the mesh's footprint). Returns the pieces and the
+    largest distance (m) a piece reached past them."""
     angles = np.arange(CLIP_DIRECTIONS) * 2 * np.pi / CLIP_DIRECTIONS
-    world_dirs = np.vstack([np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)], [[0, 0, 1.0], [0, 0, -1.0]]])
-    dirs = np.vstack([np.eye(3), -np.eye(3), world_dirs @ place.rotation])  # body frame
+    horizontal = np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)]
+    if footprint_only:
+        dirs = horizontal @ place.rotation  # body frame
+    else:
+        world_dirs = np.vstack([horizontal, [[0, 0, 1.0], [0, 0, -1.0]]])
+        dirs = np.vstack([np.eye(3), -np.eye(3), world_dirs @ place.rotation])
     reach_of = place.vertices @ dirs.T
     far = place.vertices[np.argmax(reach_of, axis=0)]
     planes = [(-n, p) for n, p in zip(dirs, far, strict=True)]  # keep n . x <= n . p
@@ -495,25 +651,43 @@ def edit_colliders(
     places = {o.node_name: placement(o) for o in objects}
     by_instance = {int(o.instance): o for o in objects}
     edits = {o.node_name: ColliderEdits() for o in objects}
+    added: dict[str, list[Piece]] = {}
     for obj in objects:
         name = obj.node_name
-        if name in hollow:
-            pieces[name] = list(hollow[name][0])
+        if name in hollow:  # cut to its extent already
+            pieces[name], reach = list(hollow[name][0]), 0.0
             edits[name].hollow = hollow[name][1]
         elif methods.get(name) not in ("components", "shell"):
             pieces[name], reach = clip_to_mesh(places[name], pieces[name])
-            if reach > 1e-4:
-                edits[name].clipped_m = round(reach, 4)
+        else:
+            reach = 0.0
+        if reach > 1e-4:
+            edits[name].clipped_m = round(reach, 4)
         extra, entries = completion_pieces(obj, places[name])
+        added[name] = extra
         pieces[name] = list(pieces[name]) + extra
         edits[name].completions = entries
     for obj in objects:
-        kids = [by_instance[c] for c in _children(obj.instance, graph) if c in by_instance]
-        if not kids or obj.node_name in hollow:  # a shell's boards are at its children's feet already
-            continue
         name = obj.node_name
-        pieces[name], edits[name].seats = seat_children(
-            places[name], pieces[name], [(k.node_name, places[k.node_name]) for k in kids]
+        seated, todo, seen = [], [(c, True) for c in _children(obj.instance, graph)], {int(obj.instance)}
+        while todo:  # its children, then theirs: a stack on a book inside a shelf stands in the shelf too
+            c, direct = todo.pop(0)
+            if c in seen or c not in by_instance:
+                continue
+            seen.add(c)
+            node = by_instance[c].node_name
+            seated.append(Seated(node, places[node], pieces[node], direct))
+            todo += [(g, False) for g in _children(c, graph)]
+        if not seated:
+            continue
+        made = [e for e in edits[name].completions if not e["collider"].startswith("none")]
+        supports = [
+            (e["height_m"], places[name].world(v)[:, :2])
+            for e, (v, _) in zip(made, added[name], strict=True)
+            if e["kind"] == CompletionKind.SUPPORT_PLANE.value
+        ]
+        pieces[name], edits[name].seats, edits[name].boards = seat_children(
+            places[name], pieces[name], seated, supports, name in hollow
         )
     parents = graph.parent_of() if graph is not None else {}
     masses = masses or {}
@@ -544,6 +718,17 @@ def edit_colliders(
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry
+    from rescene_core.export.separate import evidence_points, separate
+
+    evidence = {o.node_name: evidence_points(places[o.node_name], added[o.node_name]) for o in objects}
+    related = {
+        frozenset((o.node_name, by_instance[d].node_name))
+        for o in objects
+        for d in _descendants(o.instance, graph)
+        if d in by_instance
+    }
+    for name, rows in separate(places, pieces, evidence, related).items():
+        edits[name].separated = rows
     return edits
 
 
@@ -556,7 +741,7 @@ def find_hollow(
     for obj in objects:
         if not any(c.kind is CompletionKind.SUPPORT_PLANE for c in obj.completions):
             continue
-        kids = [placement(by_instance[c]) for c in _children(obj.instance, graph) if c in by_instance]
+        kids = [placement(by_instance[c]) for c in _descendants(obj.instance, graph) if c in by_instance]
         found = hollow_shell(obj, placement(obj), kids, shell)
         if found is not None:
             out[obj.node_name] = found

@@ -208,9 +208,9 @@ def test_footing_levels_an_uneven_bottom_and_says_when_none_holds():
     assert piece[0][:, 2].min() == pytest.approx(0.0) and piece[0][:, :2].max() == pytest.approx(0.5)
     flat = trimesh.creation.box(bounds=[[0, 0, 0], [0.5, 0.5, 0.5]])
     assert footing(_place(flat), [(flat.vertices, flat.faces)]) == (None, None)
-    # a lamp whose heavy head overhangs its small foot: no band holds its centre, none is added
-    foot = trimesh.creation.box(bounds=[[0, 0, 0], [0.05, 0.05, 0.3]])
-    head = trimesh.creation.box(bounds=[[0.3, 0, 0.3], [0.8, 0.5, 0.6]])
+    # a lamp whose heavy head overhangs its small foot above half its height: no band holds its centre
+    foot = trimesh.creation.box(bounds=[[0, 0, 0], [0.05, 0.05, 0.35]])
+    head = trimesh.creation.box(bounds=[[0.3, 0, 0.35], [0.8, 0.5, 0.6]])
     lamp = trimesh.util.concatenate([foot, head])
     piece, entry = footing(_place(lamp), [(foot.vertices, foot.faces), (head.vertices, head.faces)])
     assert piece is None and entry["band_m"] is None

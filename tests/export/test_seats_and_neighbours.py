@@ -1,0 +1,243 @@
+"""Where colliders meet: a parent's pieces carved where its children stand (seats, hollow shells, inner
+shelves), boards under a child's foot, completions kept to the mesh's footprint, and neighbours' pieces cut
+apart where neither object is; checked on the geometry, in the export report and with the physics check."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from rescene_core.export import ExportConfig, ExportObject, export_scene
+from rescene_core.export.completions import (
+    Placement,
+    Seated,
+    carve,
+    completion_pieces,
+    footing,
+    placement,
+    seat_children,
+)
+from rescene_core.export.separate import evidence_points, overlaps, separate
+from rescene_core.geometry import sim3
+from rescene_core.records import (
+    Completion,
+    CompletionKind,
+    Edge,
+    InstanceId,
+    Plane,
+    Relation,
+    RoomShell,
+    Root,
+    SceneGraph,
+    WallPlane,
+)
+from rescene_core.sim import SimcheckConfig, simcheck_run
+from tests.fixtures import ONE_WALL_SHELL
+
+pytest.importorskip("mujoco")
+
+
+def _box(lo, hi) -> trimesh.Trimesh:
+    return trimesh.creation.box(bounds=np.array([lo, hi], np.float64))
+
+
+def _piece(mesh: trimesh.Trimesh):
+    return (np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64))
+
+
+def _place(mesh: trimesh.Trimesh, at=(0.0, 0.0, 0.0)) -> Placement:
+    return Placement(np.eye(3), np.asarray(at, np.float64), 1.0, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+
+
+def _volume(pieces) -> float:
+    return sum(abs(trimesh.Trimesh(v, f).volume) for v, f in pieces)
+
+
+def test_carve_removes_the_prism_between_two_heights_and_keeps_pieces_convex():
+    pieces, removed = carve(
+        [_piece(_box([0, 0, 0], [1, 1, 1]))], np.array([[0.4, 0.4], [0.6, 0.4], [0.6, 0.6], [0.4, 0.6]]), 0.5, 0.8
+    )
+    assert removed == pytest.approx(0.3)
+    assert _volume(pieces) == pytest.approx(1.0 - 0.2 * 0.2 * 0.3, abs=1e-9)
+    for v, f in pieces:
+        mesh = trimesh.Trimesh(v, f)
+        assert mesh.is_convex and not mesh.contains([[0.5, 0.5, 0.65]])[0]
+    assert any(trimesh.Trimesh(v, f).contains([[0.5, 0.5, 0.9]])[0] for v, f in pieces)  # above: kept
+    untouched, removed = carve([_piece(_box([0, 0, 0], [1, 1, 1]))], np.array([[2, 2], [3, 2], [3, 3], [2, 3]]), 0, 1)
+    assert removed == 0.0 and len(untouched) == 1
+
+
+def _table_and_book(sunk: float, boards: tuple[float, ...] = ()):
+    """A solid 1 x 1 x 0.8 'table' and a 0.2 m cube whose bottom is ``sunk`` m below the table's top."""
+    table = _box([-0.5, -0.5, 0], [0.5, 0.5, 0.8])
+    book = _box([-0.1, -0.1, 0.8 - sunk], [0.1, 0.1, 1.0 - sunk])
+    return table, book, [0.8 - sunk for _ in boards]
+
+
+def test_a_child_inside_its_parents_mesh_is_left_unless_a_support_plane_is_at_its_feet():
+    table, book, _ = _table_and_book(0.05)
+    parent, child = _place(table), _place(book)
+    seated = [Seated("obj_2_book", child, [_piece(book)], True)]
+    pieces, seats, boards = seat_children(parent, [_piece(table)], seated)
+    assert seats[0]["cut"] is False and "layout fault" in seats[0]["why"] and not boards
+    assert seats[0]["mesh_overlap_m"] == pytest.approx(0.05, abs=5e-3)
+    assert _volume(pieces) == pytest.approx(0.8)
+    # the layout found a board at the child's feet (an inner shelf the mesh lacks): carved, board under it
+    board = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]) * 0.1  # smaller than the book
+    pieces, seats, boards = seat_children(parent, [_piece(table)], seated, supports=[(0.75, board)])
+    assert seats[0]["cut"] is True and "support plane" in seats[0]["why"]
+    assert boards and boards[0]["height_m"] == pytest.approx(0.75)
+    probe = np.array([[0.0, 0.0, 0.78]])  # inside the book, inside the table's mesh
+    assert not any(trimesh.Trimesh(v, f).contains(probe)[0] for v, f in pieces)
+
+
+def test_pieces_that_fill_a_concavity_under_a_child_are_carved():
+    # a tray: its mesh dips 5 cm where the cup stands, its single convex piece fills the dip
+    tray = trimesh.boolean.difference(
+        [_box([-0.5, -0.5, 0], [0.5, 0.5, 0.3]), _box([-0.15, -0.15, 0.25], [0.15, 0.15, 0.31])], engine="manifold"
+    )
+    cup = _box([-0.1, -0.1, 0.25], [0.1, 0.1, 0.4])
+    pieces, seats, _ = seat_children(
+        _place(tray), [_piece(tray.convex_hull)], [Seated("c", _place(cup), [_piece(cup)], True)]
+    )
+    assert seats[0]["cut"] is True and seats[0]["depth_m"] == pytest.approx(0.05, abs=1e-3)
+    assert seats[0]["mesh_overlap_m"] <= 0.02
+    top_under_cup = max(float(v[:, 2].max()) for v, _ in pieces if np.abs(v[:, :2]).max() < 0.11)
+    assert top_under_cup == pytest.approx(0.25, abs=1e-6)
+
+
+SHELL_CORNER = RoomShell(
+    floor=Plane((0.0, 0.0, 1.0), 0.0),
+    walls=(
+        WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),
+        WallPlane(1, Plane((1.0, 0.0, 0.0), 2.0), ((-2.0, 2.0), (-2.0, -2.0))),
+    ),
+    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
+    ceiling_height=2.5,
+)
+
+
+def thin_shelf_scene(shell: RoomShell = ONE_WALL_SHELL, x0: float = 0.0, width: float = 0.2, back: float = 0.025):
+    """A generated 'bookshelf' only 12 cm deep and 30 cm wide against wall 0 (its back at y = -2) with a
+    board at 0.5 m (10 cm deep), and a box ``width`` wide and 30 cm deep standing on the board, its back
+    ``back`` m in front of the wall: its centre is 4-6 cm in front of the board."""
+    shelf_mesh = _box([-0.15, -0.06, -0.8], [0.15, 0.06, 0.8])
+    y0 = -2.0 + 0.06 + 0.001
+    board = np.array([[x, y, 0.5 - 0.8] for x, y in ((-0.14, -0.05), (0.14, -0.05), (0.14, 0.05), (-0.14, 0.05))])
+    shelf = ExportObject(
+        1,
+        "bookshelf",
+        shelf_mesh.vertices,
+        shelf_mesh.faces,
+        sim3.sim3_from_parts(1.0, np.eye(3), [x0, y0, 0.8]),
+        completions=(Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, board, "parent's points (test)"),),
+    )
+    box_mesh = _box([-width / 2, 0, 0], [width / 2, 0.3, 0.1])
+    box = ExportObject(
+        2, "box", box_mesh.vertices, box_mesh.faces, sim3.sim3_from_parts(1.0, np.eye(3), [x0, -2.0 + back, 0.5])
+    )
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.9),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 0.9),
+        )
+    )
+    return [shelf, box], graph, shell
+
+
+def _export(tmp_path, objects, graph, shell, name="run"):
+    run = tmp_path / name
+    export_scene(run / "scene", objects, shell, graph, [], ExportConfig(decomposition_cache=str(tmp_path / "cache")))
+    return run
+
+
+def _stays(run) -> dict:
+    result = simcheck_run(run, SimcheckConfig())
+    by_node = {o.node: o for o in result.objects}
+    assert by_node["obj_2_box"].penetration_t0 < 2e-3
+    assert by_node["obj_2_box"].stable and by_node["obj_1_bookshelf"].stable
+    report = json.loads((run / "scene/export_report.json").read_text())
+    return {o["node"]: o for o in report["objects"]}["obj_1_bookshelf"]["colliders_from_layout"]
+
+
+def test_a_box_deeper_than_a_thin_generated_shelf_stands_on_the_board_under_its_foot(tmp_path):
+    shelf = _stays(_export(tmp_path, *thin_shelf_scene()))
+    assert shelf["hollow_shell"] is not None and not shelf["seats_cut"]
+    board = shelf["boards_under_children"][0]
+    assert board["child"] == "obj_2_box" and board["height_m"] == pytest.approx(0.5)
+
+
+def test_a_box_wider_than_a_thin_generated_shelf_has_its_side_panels_carved(tmp_path):
+    shelf = _stays(_export(tmp_path, *thin_shelf_scene(width=0.4, back=0.005)))
+    seat = shelf["seats_cut"][0]
+    assert seat["child"] == "obj_2_box" and seat["cut"] and "hollow shell" in seat["why"]
+    assert seat["depth_m"] == pytest.approx(0.1, abs=3e-3)  # its height, through both side panels
+
+
+def test_a_shelf_in_a_corner_opens_towards_the_room():
+    from rescene_core.export.completions import hollow_shell
+
+    objects, _, _ = thin_shelf_scene(SHELL_CORNER, x0=-2.0 + 0.151)
+    shelf, book = objects
+    _, entry = hollow_shell(shelf, placement(shelf), [placement(book)], SHELL_CORNER)
+    assert "corner" in entry["reason"]
+    assert entry["open_side_world"] == pytest.approx([0.0, 1.0, 0.0], abs=1e-6)  # not into wall 1 at x = -2
+
+
+def test_completions_stay_within_the_meshs_footprint():
+    top = _box([-0.5, -0.5, 0.7], [0.5, 0.5, 0.75])
+    # a base reaching 10 cm past the top's edge (a later cut of the mesh left it there)
+    base = np.array([[x, y, z] for x in (-0.3, 0.6) for y in (-0.3, 0.3) for z in (0.0, 0.7)])
+    obj = ExportObject(
+        1,
+        "table",
+        top.vertices,
+        top.faces,
+        np.eye(4),
+        completions=(Completion(InstanceId(1), CompletionKind.BASE, base, "test"),),
+    )
+    pieces, entries = completion_pieces(obj, placement(obj))
+    assert entries[0]["clipped_to_footprint_m"] == pytest.approx(0.1)
+    assert pieces[0][0][:, 0].max() == pytest.approx(0.5) and pieces[0][0][:, 2].min() == pytest.approx(0.0)
+
+
+def test_neighbours_pieces_are_cut_apart_where_neither_object_is():
+    a_mesh, b_mesh = _box([0, 0, 0], [1, 1, 1]), _box([1.05, 0, 0], [2, 1, 1])
+    places = {"a": _place(a_mesh), "b": _place(b_mesh)}
+    pieces = {"a": [_piece(_box([0, 0, 0], [1.1, 1, 1]))], "b": [_piece(b_mesh)]}  # a's piece reaches 10 cm past it
+    evidence = {n: evidence_points(p) for n, p in places.items()}
+    rows = separate(places, pieces, evidence, set())
+    assert rows["a"][0]["neighbour"] == "b" and rows["a"][0]["pieces_cut"] == 1
+    assert rows["a"][0]["depth_m"] == pytest.approx(0.05, abs=1e-3)
+    assert pieces["a"][0][0][:, 0].max() == pytest.approx(1.025, abs=1e-6)  # midway between the meshes
+    assert pieces["b"][0][0][:, 0].min() == pytest.approx(1.05, abs=1e-6)
+    assert overlaps({n: ps for n, ps in pieces.items()}) == []
+
+
+def test_neighbours_that_overlap_themselves_are_left_and_reported():
+    a_mesh, b_mesh = _box([0, 0, 0], [1, 1, 1]), _box([0.95, 0, 0], [2, 1, 1])
+    places = {"a": _place(a_mesh), "b": _place(b_mesh)}
+    pieces = {"a": [_piece(a_mesh)], "b": [_piece(b_mesh)]}
+    rows = separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, set())
+    assert rows["b"][0]["pieces_cut"] == 0 and rows["b"][0]["meshes_overlap_m"] == pytest.approx(0.05, abs=1e-3)
+    assert "layout fault" in rows["b"][0]["why"]
+    assert pieces["a"][0][0][:, 0].max() == pytest.approx(1.0)
+    # a child and its parent are the seats' business, not this
+    assert separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, {frozenset("ab")}) == {}
+
+
+def test_footing_bands_reach_half_the_height_and_no_further():
+    # a lamp whose head, beside its foot, starts at 40 % of its height: the 50 % band holds it
+    foot = _box([0, 0, 0], [0.05, 0.05, 0.24])
+    head = _box([0.1, 0, 0.24], [0.3, 0.2, 0.6])
+    lamp = trimesh.util.concatenate([foot, head])
+    piece, entry = footing(_place(lamp), [_piece(foot), _piece(head)])
+    assert piece is not None and entry["band_fraction_of_height"] == 0.5
+    # a head starting above half the height is not reached
+    head = _box([0.1, 0, 0.35], [0.3, 0.2, 0.6])
+    lamp = trimesh.util.concatenate([_box([0, 0, 0], [0.05, 0.05, 0.35]), head])
+    piece, entry = footing(_place(lamp), [_piece(_box([0, 0, 0], [0.05, 0.05, 0.35])), _piece(head)])
+    assert piece is None and entry["band_m"] is None
