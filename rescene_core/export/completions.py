@@ -89,6 +89,8 @@ CARVE_MARGIN = 0.002
 """A child's prism reaches this far (m) past its collider: faces that touch are not left overlapping."""
 SUPPORT_MATCH = 0.03
 """A support plane within this distance (m) of a child's bottom is the board the child stands on."""
+NEIGHBOUR_CLEARANCE = 0.002
+"""A footing or a board under a child's foot reaching this far (m) into a neighbour's geometry reaches into it."""
 MIN_PIECE_VOLUME = 1e-8
 """A cut piece smaller than this (m^3, a 1 cm x 1 cm x 0.1 mm sliver) is dropped."""
 CONTACT_BAND = 0.001
@@ -464,11 +466,13 @@ def seat_children(
     children: Iterable[Seated],
     supports: Iterable[tuple[float, NDArray]] = (),
     hollow: bool = False,
+    others: NDArray | None = None,
 ) -> tuple[list[Piece], list[dict[str, Any]], list[dict[str, Any]]]:
     """``parent``'s body-frame pieces carved where its children stand, and boards under their feet (see the
     module doc); returns the pieces, the seat entries and the board entries of the export report.
     ``supports``: the parent's support-plane boards, (world height m, world xy of the board's corners [k, 2]);
-    ``hollow``: its pieces are a shell (``hollow_shell``)."""
+    ``hollow``: its pieces are a shell (``hollow_shell``); ``others``: world points [n, 3] of the geometry of
+    neighbours (not its children), which a board under a child's foot must not reach into."""
     from shapely.geometry import MultiPoint, Polygon
 
     boards_xy = [(h, MultiPoint(np.asarray(xy, np.float64)).convex_hull.buffer(1e-3)) for h, xy in supports]
@@ -516,6 +520,9 @@ def seat_children(
                 [np.c_[fring, np.full(len(fring), level)], np.c_[fring, np.full(len(fring), level - BOARD_THICKNESS)]]
             )
             piece = _hull(slab)
+            if piece is not None and others is not None and len(others):
+                if inside_piece(others, (piece[0] + off, piece[1])).any():
+                    piece = None  # a neighbour stands there: the board is not the child's alone
             if piece is not None:
                 work.append(piece)
                 boards.append(
@@ -561,6 +568,15 @@ def clip_to_mesh(place: Placement, pieces: list[Piece], footprint_only: bool = F
     return (out, reach) if out else (list(pieces), 0.0)
 
 
+def inside_piece(points: NDArray, piece: Piece, tolerance: float = -NEIGHBOUR_CLEARANCE) -> NDArray[np.bool_]:
+    """Which ``points`` [n, 3] lie inside the convex ``piece`` (same frame), its faces moved out by
+    ``tolerance`` (m; negative: in)."""
+    mesh = trimesh.Trimesh(*piece, process=False)
+    normals = mesh.face_normals
+    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0])
+    return ((np.asarray(points, np.float64) @ normals.T - offsets) <= tolerance).all(axis=1)
+
+
 def centre_of_mass(pieces: list[Piece]) -> NDArray[np.float64] | None:
     vols, centres = [], []
     for v, f in pieces:
@@ -586,11 +602,17 @@ def _support_margin(points_xy: NDArray, centre_xy: NDArray) -> float:
 
 
 def footing(
-    place: Placement, pieces: list[Piece], mass: float = 1.0, load: Iterable[tuple[float, NDArray]] = ()
+    place: Placement,
+    pieces: list[Piece],
+    mass: float = 1.0,
+    load: Iterable[tuple[float, NDArray]] = (),
+    others: NDArray | None = None,
 ) -> tuple[Piece | None, dict[str, Any] | None]:
     """A footing piece (body frame) for an object that would rock on its lowest points, and its report
     entry; (None, None) when it stands as it is. ``load``: (mass kg, world centre of mass) of what rests
-    on the object (its children, theirs, ...), whose weight it carries; ``mass``: its own (kg)."""
+    on the object (its children, theirs, ...), whose weight it carries; ``mass``: its own (kg). ``others``:
+    world points [n, 3] of neighbours' geometry (meshes, completions), which a footing must not reach into
+    (a band that would is skipped)."""
     com = centre_of_mass(pieces)
     if com is None:
         return None, None
@@ -606,6 +628,7 @@ def footing(
         return None, None
     mesh_w = place.world(place.vertices)
     height = float(mesh_w[:, 2].max() - zmin)
+    blocked = False
     for frac in FOOTING_BANDS:
         band = max(FOOTING_MIN_BAND, frac * height)
         low = mesh_w[mesh_w[:, 2] <= zmin + band]
@@ -619,6 +642,9 @@ def footing(
         piece = _hull(place.body(np.vstack([low, flat])))
         if piece is None:
             continue
+        if others is not None and len(others) and inside_piece(others, (place.world(piece[0]), piece[1])).any():
+            blocked = True
+            continue
         entry = {
             "band_m": round(band, 4),
             "band_fraction_of_height": frac,
@@ -631,7 +657,8 @@ def footing(
     return None, {
         "band_m": None,
         "support_margin_before_m": round(margin, 4),
-        "why": f"none added: no band up to {FOOTING_BANDS[-1]:g} of its height holds its centre of mass",
+        "why": f"none added: no band up to {FOOTING_BANDS[-1]:g} of its height holds its centre of mass"
+        + (" without reaching into a neighbour" if blocked else ""),
     }
 
 
@@ -667,6 +694,30 @@ def edit_colliders(
         added[name] = extra
         pieces[name] = list(pieces[name]) + extra
         edits[name].completions = entries
+    from rescene_core.export.separate import evidence_points, separate
+
+    evidence = {o.node_name: evidence_points(places[o.node_name], added[o.node_name]) for o in objects}
+    related = {
+        frozenset((o.node_name, by_instance[d].node_name))
+        for o in objects
+        for d in _descendants(o.instance, graph)
+        if d in by_instance
+    }
+    boxes = {n: (np.vstack(e).min(axis=0), np.vstack(e).max(axis=0)) for n, e in evidence.items()}
+
+    def others_of(name: str) -> NDArray[np.float64]:
+        """World points of the geometry of the objects near ``name`` that neither rest on it nor carry it."""
+        lo, hi = boxes[name][0] - 0.5, boxes[name][1] + 0.5
+        near = [
+            np.vstack(evidence[n])
+            for n in evidence
+            if n != name
+            and frozenset((n, name)) not in related
+            and (boxes[n][0] <= hi).all()
+            and (boxes[n][1] >= lo).all()
+        ]
+        return np.vstack(near) if near else np.zeros((0, 3))
+
     for obj in objects:
         name = obj.node_name
         seated, todo, seen = [], [(c, True) for c in _children(obj.instance, graph)], {int(obj.instance)}
@@ -687,7 +738,7 @@ def edit_colliders(
             if e["kind"] == CompletionKind.SUPPORT_PLANE.value
         ]
         pieces[name], edits[name].seats, edits[name].boards = seat_children(
-            places[name], pieces[name], seated, supports, name in hollow
+            places[name], pieces[name], seated, supports, name in hollow, others_of(name)
         )
     parents = graph.parent_of() if graph is not None else {}
     masses = masses or {}
@@ -712,21 +763,12 @@ def edit_colliders(
         if kinds.get(name) != "free" or edge is None or edge.relation != Relation.RESTS_ON:
             continue
         load = carried(int(obj.instance), frozenset({int(obj.instance)}))
-        piece, entry = footing(places[name], pieces[name], masses.get(name, 1.0), load)
+        piece, entry = footing(places[name], pieces[name], masses.get(name, 1.0), load, others_of(name))
         if entry is not None and load:
             entry["load_kg"] = round(sum(m for m, _ in load), 3)
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry
-    from rescene_core.export.separate import evidence_points, separate
-
-    evidence = {o.node_name: evidence_points(places[o.node_name], added[o.node_name]) for o in objects}
-    related = {
-        frozenset((o.node_name, by_instance[d].node_name))
-        for o in objects
-        for d in _descendants(o.instance, graph)
-        if d in by_instance
-    }
     for name, rows in separate(places, pieces, evidence, related).items():
         edits[name].separated = rows
     return edits

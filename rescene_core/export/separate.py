@@ -24,7 +24,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from rescene_core.export.completions import Piece, Placement, _slice
+from rescene_core.export.completions import Piece, Placement, _slice, inside_piece
 
 MIN_DEPTH = 0.002
 """Pieces overlapping less than this (m) are left as they are (MuJoCo resolves millimetres quietly)."""
@@ -60,11 +60,7 @@ def evidence_points(place: Placement, extra: Iterable[Piece] = ()) -> tuple[NDAr
 
 
 def _inside(points: NDArray, piece: Piece, tolerance: float) -> NDArray[np.bool_]:
-    """Which ``points`` lie inside the convex ``piece`` (world frame), grown by ``tolerance``."""
-    mesh = trimesh.Trimesh(*piece, process=False)
-    normals = mesh.face_normals
-    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0])
-    return ((points @ normals.T - offsets) <= tolerance).all(axis=1)
+    return inside_piece(points, piece, tolerance)
 
 
 def overlaps(world_pieces: dict[str, list[Piece]], min_depth: float = MIN_DEPTH) -> list[dict[str, Any]]:

@@ -241,3 +241,14 @@ def test_footing_bands_reach_half_the_height_and_no_further():
     lamp = trimesh.util.concatenate([_box([0, 0, 0], [0.05, 0.05, 0.35]), head])
     piece, entry = footing(_place(lamp), [_piece(_box([0, 0, 0], [0.05, 0.05, 0.35])), _piece(head)])
     assert piece is None and entry["band_m"] is None
+
+
+def test_a_footing_does_not_reach_into_a_neighbour():
+    foot = _box([0, 0, 0], [0.05, 0.05, 0.24])
+    head = _box([0.1, 0, 0.24], [0.3, 0.2, 0.6])
+    lamp = trimesh.util.concatenate([foot, head])
+    pieces = [_piece(foot), _piece(head)]
+    assert footing(_place(lamp), pieces, others=np.array([[2.0, 2.0, 0.1]]))[0] is not None  # far away
+    # a neighbour's mesh under the lamp's head, where the 50 % footing would fill
+    piece, entry = footing(_place(lamp), pieces, others=np.array([[0.2, 0.1, 0.1]]))
+    assert piece is None and entry["band_m"] is None and "neighbour" in entry["why"]
