@@ -571,10 +571,17 @@ def clip_to_mesh(place: Placement, pieces: list[Piece], footprint_only: bool = F
 def inside_piece(points: NDArray, piece: Piece, tolerance: float = -NEIGHBOUR_CLEARANCE) -> NDArray[np.bool_]:
     """Which ``points`` [n, 3] lie inside the convex ``piece`` (same frame), its faces moved out by
     ``tolerance`` (m; negative: in)."""
-    mesh = trimesh.Trimesh(*piece, process=False)
-    normals = mesh.face_normals
-    offsets = np.einsum("ij,ij->i", normals, mesh.triangles[:, 0])
+    normals, offsets = face_planes(piece)
     return ((np.asarray(points, np.float64) @ normals.T - offsets) <= tolerance).all(axis=1)
+
+
+def face_planes(piece: Piece) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Outward unit normals [f, 3] and offsets [f] (n . x = offset) of a convex piece's faces; degenerate
+    (zero-area) faces left out."""
+    mesh = trimesh.Trimesh(*piece, process=False)
+    keep = np.linalg.norm(mesh.face_normals, axis=1) > 0.5
+    normals = mesh.face_normals[keep]
+    return normals, np.einsum("ij,ij->i", normals, mesh.triangles[keep, 0])
 
 
 def centre_of_mass(pieces: list[Piece]) -> NDArray[np.float64] | None:
@@ -769,7 +776,7 @@ def edit_colliders(
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry
-    for name, rows in separate(places, pieces, evidence, related).items():
+    for name, rows in separate(places, pieces, evidence, related, added).items():
         edits[name].separated = rows
     return edits
 

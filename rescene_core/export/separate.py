@@ -24,7 +24,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from rescene_core.export.completions import Piece, Placement, _slice, inside_piece
+from rescene_core.export.completions import Piece, Placement, _slice, face_planes, inside_piece
 
 MIN_DEPTH = 0.002
 """Pieces overlapping less than this (m) are left as they are (MuJoCo resolves millimetres quietly)."""
@@ -130,16 +130,64 @@ def separating_plane(
     return best
 
 
+MAX_DEPTH_POINTS = 400
+"""Points inside a mesh whose depth is measured (trimesh's signed distance), the deepest first by their own
+mesh's sampling order (a bound on the time an overlap report takes)."""
+
+
+def _depth_in_mesh(points: NDArray, mesh: trimesh.Trimesh) -> float:
+    """How deep (m) the deepest of ``points`` lies inside the closed ``mesh`` (0 when none is, or the mesh is
+    not closed)."""
+    if len(points) == 0 or not mesh.is_watertight:
+        return 0.0
+    inside = mesh.contains(points)
+    if not inside.any():
+        return 0.0
+    return max(0.0, float(trimesh.proximity.signed_distance(mesh, points[inside][:MAX_DEPTH_POINTS]).max()))
+
+
+def _depth_in_piece(points: NDArray, piece: Piece) -> float:
+    """How deep (m) the deepest of ``points`` lies inside the convex ``piece`` (0 when none is)."""
+    if len(points) == 0:
+        return 0.0
+    normals, offsets = face_planes(piece)
+    return max(0.0, float((offsets - points @ normals.T).min(axis=1).max()))
+
+
+def overlap_depths(
+    places: dict[str, Placement],
+    evidence: dict[str, tuple[NDArray, NDArray]],
+    completions: dict[str, list[Piece]],
+    a: str,
+    b: str,
+) -> tuple[float, float]:
+    """How deep (m) two objects overlap: their meshes (each one's surface points inside the other's closed
+    mesh), and anything involving a completion (a mesh's or completion's points inside the other's
+    completion pieces, a completion's points inside the other's mesh)."""
+    meshes = {n: trimesh.Trimesh(places[n].world(places[n].vertices), places[n].faces, process=True) for n in (a, b)}
+    meshes_depth = max(_depth_in_mesh(evidence[a][0], meshes[b]), _depth_in_mesh(evidence[b][0], meshes[a]))
+    with_completions = 0.0
+    for x, y in ((a, b), (b, a)):
+        mesh_x, added_x = evidence[x]
+        with_completions = max(with_completions, _depth_in_mesh(added_x, meshes[y]))
+        for v, f in completions.get(y, []):
+            piece = (places[y].world(v), f)
+            with_completions = max(with_completions, _depth_in_piece(np.vstack([mesh_x, added_x]), piece))
+    return meshes_depth, with_completions
+
+
 def separate(
     places: dict[str, Placement],
     pieces: dict[str, list[Piece]],
     evidence: dict[str, tuple[NDArray, NDArray]],
     related: set[frozenset[str]],
+    completions: dict[str, list[Piece]] | None = None,
 ) -> dict[str, list[dict[str, Any]]]:
     """Cut apart the pieces (body frame, changed in place) of neighbours that overlap where neither object
-    is (see the module doc). ``evidence``: node -> world points of its mesh and of its completions (``evidence_points``);
-    ``related``: pairs of nodes one of which rests on the other (left to the seats). Returns node -> report
-    entries."""
+    is (see the module doc). ``evidence``: node -> world points of its mesh and of its completions
+    (``evidence_points``); ``related``: pairs of nodes one of which rests on the other (left to the seats);
+    ``completions``: node -> body-frame pieces of its completions (for the report's overlap depths).
+    Returns node -> report entries."""
     world = {n: [(places[n].world(v), f) for v, f in ps] for n, ps in pieces.items()}
     entries: dict[str, dict[str, dict[str, Any]]] = {n: {} for n in pieces}
     for _ in range(PASSES):
@@ -160,11 +208,9 @@ def separate(
                 entry = entries[node].setdefault(other, {"neighbour": other, "depth_m": 0.0, "pieces_cut": 0})
                 entry["depth_m"] = round(max(entry["depth_m"], o["depth"]), 4)
             if gap < -SEPARATE_TOLERANCE:
-                mesh_gap = separating_plane(ma, mb, o["normal"], o["point"])[2]
                 for node, other in ((a, b), (b, a)):
                     e = entries[node][other]
                     e["objects_overlap_m"] = round(max(e.get("objects_overlap_m", 0.0), -gap), 4)
-                    e["meshes_overlap_m"] = round(max(e.get("meshes_overlap_m", 0.0), -mesh_gap, 0.0), 4)
                 continue
             world[a][ka] = _slice(pa, -d, c * d)
             world[b][kb] = _slice(pb, d, c * d)
@@ -177,15 +223,28 @@ def separate(
     for n in pieces:
         pieces[n] = [(places[n].body(v), f) for v, f in world[n]]
     out: dict[str, list[dict[str, Any]]] = {}
+    depths: dict[frozenset[str], tuple[float, float]] = {}
     for n, by_other in entries.items():
         rows = []
-        for e in by_other.values():
+        for other, e in by_other.items():
             if e.get("objects_overlap_m") is not None:
-                what = "their meshes" if e["meshes_overlap_m"] > SEPARATE_TOLERANCE else "their completions (a base)"
-                e["why"] = (
-                    f"{what} overlap by {e['objects_overlap_m']:.3f} m: no plane separates them (a layout fault), "
-                    "left as they are"
-                )
+                key = frozenset((n, other))
+                if key not in depths:
+                    depths[key] = overlap_depths(places, evidence, completions or {}, n, other)
+                meshes_depth, with_completions = depths[key]
+                e["meshes_overlap_m"] = round(meshes_depth, 4)
+                e["completions_overlap_m"] = round(with_completions, 4)
+                if meshes_depth > SEPARATE_TOLERANCE:
+                    what = f"their meshes overlap by {meshes_depth:.3f} m"
+                elif with_completions > SEPARATE_TOLERANCE:
+                    what = f"a completion (a base, a board) of one reaches {with_completions:.3f} m into the other"
+                else:
+                    what = (
+                        "their meshes and completions do not overlap, but one stands in a concavity of the other "
+                        "that no plane cuts off"
+                    )
+                fault = "a layout fault" if max(meshes_depth, with_completions) > SEPARATE_TOLERANCE else "not cut"
+                e["why"] = f"{what}: no plane separates them ({fault}), left as they are"
             else:
                 e["why"] = "their convex pieces overlapped where neither object is: cut apart by a plane between them"
             rows.append(e)

@@ -252,3 +252,16 @@ def test_a_footing_does_not_reach_into_a_neighbour():
     # a neighbour's mesh under the lamp's head, where the 50 % footing would fill
     piece, entry = footing(_place(lamp), pieces, others=np.array([[0.2, 0.1, 0.1]]))
     assert piece is None and entry["band_m"] is None and "neighbour" in entry["why"]
+
+
+def test_inside_piece_ignores_degenerate_faces():
+    from rescene_core.export.completions import inside_piece
+
+    box = _box([0, 0, 0], [1, 1, 1])
+    faces = np.vstack([box.faces, [[0, 0, 1]]])  # a zero-area face, as a hull of near-duplicate points can have
+    piece = (np.asarray(box.vertices, np.float64), faces)
+    assert inside_piece(np.array([[0.5, 0.5, 0.5], [0.999, 0.5, 0.5], [1.5, 0.5, 0.5]]), piece).tolist() == [
+        True,
+        False,
+        False,
+    ]
