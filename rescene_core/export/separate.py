@@ -130,20 +130,21 @@ def separating_plane(
     return best
 
 
-MAX_DEPTH_POINTS = 400
-"""Points inside a mesh whose depth is measured (trimesh's signed distance), the deepest first by their own
-mesh's sampling order (a bound on the time an overlap report takes)."""
-
-
 def _depth_in_mesh(points: NDArray, mesh: trimesh.Trimesh) -> float:
     """How deep (m) the deepest of ``points`` lies inside the closed ``mesh`` (0 when none is, or the mesh is
-    not closed)."""
+    not closed): Open3D's signed distance (ray-parity inside test, C++)."""
+    lo, hi = mesh.bounds
+    points = points[((points >= lo) & (points <= hi)).all(axis=1)]  # only where it can be
     if len(points) == 0 or not mesh.is_watertight:
         return 0.0
-    inside = mesh.contains(points)
-    if not inside.any():
-        return 0.0
-    return max(0.0, float(trimesh.proximity.signed_distance(mesh, points[inside][:MAX_DEPTH_POINTS]).max()))
+    import open3d as o3d
+
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(
+        o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32))
+    )
+    signed = scene.compute_signed_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
+    return max(0.0, float(-signed.min()))
 
 
 def _depth_in_piece(points: NDArray, piece: Piece) -> float:
