@@ -1,6 +1,10 @@
 """Shared fixtures. Prefect runs against a throwaway home, and convex decompositions are cached in a
 throwaway directory (shared by every test and subprocess of the session, so a mesh is decomposed once),
-so tests never touch a user's profile or ~/.cache and run as on a fresh machine."""
+so tests never touch a user's profile or ~/.cache and run as on a fresh machine.
+
+Tests that need a Prefect API share one real `prefect server start` (``prefect_api``), started by the
+first of them and stopped after the last: starting a server (imports and database migrations) costs as
+much as a small test, and a command-line run without one would start a temporary server of its own."""
 
 from __future__ import annotations
 
@@ -33,3 +37,26 @@ def box_capture_path(tmp_path_factory):
     from tests.flows.fakes import box_capture
 
     return box_capture(tmp_path_factory.mktemp("capture") / "boxes.zarr")
+
+
+@pytest.fixture(scope="session")
+def prefect_api(tmp_path_factory, request):
+    """A real `prefect server start` on a free port (its own home and SQLite database) for every test that
+    needs a Prefect API: the environment that points clients, the CLI and workers at it (``PREFECT_API_URL``)."""
+    from tests.flows.prefect_server import local_server, stop_after_last_use
+
+    return stop_after_last_use(request).enter_context(local_server(tmp_path_factory.mktemp("prefect-server")))
+
+
+def pytest_collection_finish(session):
+    from tests.flows.prefect_server import note_last_uses
+
+    note_last_uses(session.items)
+
+
+@pytest.hookimpl(hookwrapper=True, trylast=True)
+def pytest_runtest_teardown(item, nextitem):
+    yield
+    from tests.flows.prefect_server import stop_unused_after
+
+    stop_unused_after(item)

@@ -13,8 +13,8 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Iterable, Iterator
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 import httpx
@@ -90,6 +90,38 @@ def local_server(tmp: Path, extra_env: dict[str, str] | None = None, timeout: fl
         stop(server)
 
 
+@contextmanager
+def client_settings(api: str) -> Iterator[None]:
+    """Point this process's Prefect client at ``api`` (what ``prefect_test_harness`` does for its own server);
+    on exit, send the logs and events still queued before the settings change back."""
+    import inspect
+
+    import prefect.context
+    from prefect.events.worker import EventsWorker
+    from prefect.logging.handlers import APILogWorker
+    from prefect.settings import PREFECT_API_URL, temporary_settings
+    from prefect.utilities.asyncutils import run_coro_as_sync
+
+    async def drain() -> None:
+        try:
+            done = APILogWorker.instance().drain()
+            if inspect.isawaitable(done):
+                await done
+        except RuntimeError:  # the log worker never started
+            pass
+        done = EventsWorker.drain_all()
+        if inspect.isawaitable(done):
+            await done
+
+    with temporary_settings(updates={PREFECT_API_URL: api}):
+        # also the process-global settings context, for contexts copied before this one (as the harness does)
+        with prefect.context._temporary_global_settings_context(prefect.context.get_settings_context()):
+            try:
+                yield
+            finally:
+                run_coro_as_sync(drain())
+
+
 def start_worker(env: dict[str, str], log: Path, limit: int = 2) -> subprocess.Popen:
     """A process worker on the pool ``POOL`` of the server ``env`` points at, its output in ``log``."""
     with open(log, "w") as out:
@@ -97,6 +129,35 @@ def start_worker(env: dict[str, str], log: Path, limit: int = 2) -> subprocess.P
             [PREFECT, "worker", "start", "--pool", POOL, "--limit", str(limit)],
             env={**env, **WORKER_ENV}, cwd=REPO, stdout=out, stderr=subprocess.STDOUT,
         )  # fmt: skip
+
+
+_RUNNING: dict[str, ExitStack] = {}
+"""Session fixtures that stop after their last test (``stop_after_last_use``), in the order they started."""
+_LAST_USE: dict[str, str] = {}
+"""Fixture name -> node id of the last collected test that uses it."""
+
+
+def note_last_uses(items: Iterable) -> None:
+    """Record, per fixture, the last of the collected tests ``items`` (in run order) that uses it."""
+    for item in items:
+        for name in getattr(item, "fixturenames", ()):
+            _LAST_USE[name] = item.nodeid
+
+
+def stop_after_last_use(request) -> ExitStack:
+    """The resources of the session fixture ``request`` asks for: closed right after the last test that uses
+    it (so a server or worker does not idle through the rest of the suite), or at the end of the session."""
+    stack = ExitStack()
+    _RUNNING[request.fixturename] = stack
+    request.addfinalizer(stack.close)
+    return stack
+
+
+def stop_unused_after(item) -> None:
+    """After ``item``'s teardown: close the fixtures it was the last user of, the later started first."""
+    for name in reversed(list(_RUNNING)):
+        if _LAST_USE.get(name) == item.nodeid:
+            _RUNNING.pop(name).close()
 
 
 def wait_slot_released(log: Path, flow_run_id: str, timeout: float = 120) -> None:

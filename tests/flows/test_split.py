@@ -108,7 +108,7 @@ def test_split_runs_skips_and_reports(prefect_server, fake_stages, box_capture_p
     assert fake_stages["registration"] == 3
 
 
-def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path):
+def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path, request):
     """A scene whose deployment run no worker takes is TimedOut after timeout_s; the split still reports."""
     from prefect.client.orchestration import get_client
     from prefect.client.schemas.actions import WorkPoolCreate
@@ -120,6 +120,7 @@ def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path):
         client.create_work_pool(WorkPoolCreate(name="no-workers", type="process"), overwrite=True)
     spec = {"name": "idle", "entrypoint": "flows/scene.py:rescene", "work_pool": {"name": "no-workers"}}
     deployment_id = register(spec)
+    request.addfinalizer(lambda: _delete_deployment(deployment_id))  # the server is shared by the deployment tests
     with get_client(sync_client=True) as client:
         # workers run the flow in this tree, not in a copy of it (the copy includes the virtual environment)
         steps = client.read_deployment(deployment_id).pull_steps
@@ -133,3 +134,10 @@ def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path):
     assert state.is_failed() and "boxes (TimedOut: not final after 2 s" in state.message
     row = pq.read_table(out / "idle_summary.parquet").to_pylist()[0]
     assert row["state"] == "TimedOut" and row["flow_run_id"]
+
+
+def _delete_deployment(deployment_id) -> None:
+    from prefect.client.orchestration import get_client
+
+    with get_client(sync_client=True) as client:
+        client.delete_deployment(deployment_id)

@@ -18,7 +18,7 @@ from rescene_core.capture.importers import ImportOptions, import_capture
 
 @pytest.mark.slow
 @pytest.mark.timeout(900)  # about a minute on a quiet two-core machine; far longer when it is shared
-def test_real_sample_imports_and_the_flow_places_or_reports_every_segment(hololens, tmp_path):
+def test_real_sample_imports_and_the_flow_places_or_reports_every_segment(hololens, prefect_api, tmp_path):
     out = tmp_path / "holo.zarr"
     # every 5th frame keeps the test short; `make demo-real` imports all 75
     report = import_capture("rgbd", hololens, out, ImportOptions(segment="geometric", stride=5))
@@ -39,7 +39,8 @@ def test_real_sample_imports_and_the_flow_places_or_reports_every_segment(holole
 
     rescene = Path(sys.executable).with_name("rescene")
     run = tmp_path / "run"
-    env = {**os.environ, "PREFECT_SERVER_ANALYTICS_ENABLED": "false"}
+    # the run reports to the session's Prefect server instead of starting a temporary one
+    env = {**os.environ, "PREFECT_SERVER_ANALYTICS_ENABLED": "false", "PREFECT_API_URL": prefect_api["PREFECT_API_URL"]}
     proc = subprocess.run(
         [str(rescene), "run", str(out), "--out", str(run)], capture_output=True, text=True, env=env, timeout=900
     )
