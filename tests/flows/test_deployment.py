@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -37,8 +39,11 @@ def test_deployment_run_on_local_server(deploy_stack, tmp_path):
     assert len(manifest["instances"]) >= 1
 
     # the split flow skips the scene already done, runs the other as a rescene/scene deployment run
-    # (picked up by the worker), and writes its Parquet summary; it asks for the runs' states every second
-    other = write_synth(tmp_path / "tiny1.zarr", "tiny", seed=1)
+    # (picked up by the worker), and writes its Parquet summary; it asks for the runs' states every second.
+    # The other scene is a copy of the first under another name: not done in its own run directory, it runs
+    # every stage again, and its convex decompositions come from the session's cache (a second scene's
+    # CoACD runs, the longest stage of a run, would check nothing more of the deployment)
+    other = Path(shutil.copytree(capture, tmp_path / "tiny1.zarr"))
     split = tmp_path / "split.txt"
     split.write_text(f"{capture}\n{other.name}\n")
     params = json.dumps({"split_file": str(split), "out_root": str(tmp_path / "runs"), "poll_interval_s": 1.0})
