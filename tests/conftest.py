@@ -2,9 +2,10 @@
 throwaway directory (shared by every test and subprocess of the session, so a mesh is decomposed once),
 so tests never touch a user's profile or ~/.cache and run as on a fresh machine.
 
-Tests that need a Prefect API share one real `prefect server start` (``prefect_api``), started by the
-first of them and stopped after the last: starting a server (imports and database migrations) costs as
-much as a small test, and a command-line run without one would start a temporary server of its own."""
+Tests that need a Prefect API share one real `prefect server start` (``prefect_api``), started in the
+background once the tests are collected and stopped after the last of them: starting a server (imports
+and database migrations) costs as much as a small test, and a command-line run without one would start a
+temporary server of its own."""
 
 from __future__ import annotations
 
@@ -40,18 +41,23 @@ def box_capture_path(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def prefect_api(tmp_path_factory, request):
+def prefect_api(request):
     """A real `prefect server start` on a free port (its own home and SQLite database) for every test that
-    needs a Prefect API: the environment that points clients, the CLI and workers at it (``PREFECT_API_URL``)."""
-    from tests.flows.prefect_server import local_server, stop_after_last_use
+    needs a Prefect API: the environment that points clients, the CLI and workers at it (``PREFECT_API_URL``).
+    It starts in the background as soon as the tests are collected (``pytest_collection_finish``)."""
+    from tests.flows.prefect_server import session_server, stop_after_last_use
 
-    return stop_after_last_use(request).enter_context(local_server(tmp_path_factory.mktemp("prefect-server")))
+    return stop_after_last_use(request).enter_context(session_server())
 
 
 def pytest_collection_finish(session):
-    from tests.flows.prefect_server import note_last_uses
+    from tests.flows.prefect_server import note_last_uses, start_session_server
 
     note_last_uses(session.items)
+    if not session.config.option.collectonly and any(
+        "prefect_api" in getattr(i, "fixturenames", ()) for i in session.items
+    ):
+        start_session_server()  # its imports and database migrations run alongside the first tests
 
 
 @pytest.hookimpl(hookwrapper=True, trylast=True)
@@ -60,3 +66,9 @@ def pytest_runtest_teardown(item, nextitem):
     from tests.flows.prefect_server import stop_unused_after
 
     stop_unused_after(item)
+
+
+def pytest_sessionfinish(session):
+    from tests.flows.prefect_server import stop_session_server
+
+    stop_session_server()  # started but not used (every test that needed it deselected or skipped)

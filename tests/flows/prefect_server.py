@@ -12,9 +12,11 @@ import os
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterable, Iterator
 from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import httpx
@@ -51,13 +53,18 @@ def stop(*procs: subprocess.Popen | None) -> None:
                 proc.kill()
 
 
-@contextmanager
-def local_server(tmp: Path, extra_env: dict[str, str] | None = None, timeout: float = 180) -> Iterator[dict[str, str]]:
-    """A Prefect server with its own home and SQLite database under ``tmp`` (its output in server.log there);
-    yields the environment that points the CLI, workers and clients at it (``PREFECT_API_URL``), and stops
-    the server on exit."""
+@dataclass
+class Server:
+    """A started `prefect server start` and the environment that points clients at it."""
+
+    process: subprocess.Popen
+    env: dict[str, str]
+
+
+def start_server(tmp: Path, extra_env: dict[str, str] | None = None) -> Server:
+    """Start a Prefect server with its own home and SQLite database under ``tmp`` (its output in server.log
+    there), without waiting for it (``wait_healthy``)."""
     port = free_port()
-    api = f"http://127.0.0.1:{port}/api"
     env = {
         **os.environ,
         "PREFECT_HOME": str(tmp / "prefect-home"),
@@ -70,24 +77,65 @@ def local_server(tmp: Path, extra_env: dict[str, str] | None = None, timeout: fl
     }
     env.pop("PREFECT_API_URL", None)
     with open(tmp / "server.log", "w") as log:
-        server = subprocess.Popen(
+        process = subprocess.Popen(
             [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
             env=env, cwd=tmp, stdout=log, stderr=subprocess.STDOUT,
         )  # fmt: skip
+    return Server(process, {**env, "PREFECT_API_URL": f"http://127.0.0.1:{port}/api"})
+
+
+def wait_healthy(server: Server, timeout: float = 180) -> dict[str, str]:
+    """Wait until ``server`` answers its health check; its environment (``PREFECT_API_URL`` set)."""
+    api = server.env["PREFECT_API_URL"]
+    deadline = time.monotonic() + timeout
+    while True:
+        assert server.process.poll() is None, "prefect server exited"
+        try:
+            if httpx.get(f"{api}/health", timeout=2).status_code == 200:
+                return server.env
+        except httpx.HTTPError:
+            pass
+        assert time.monotonic() < deadline, f"prefect server at {api} did not become healthy in {timeout} s"
+        time.sleep(0.25)
+
+
+@contextmanager
+def local_server(tmp: Path, extra_env: dict[str, str] | None = None, timeout: float = 180) -> Iterator[dict[str, str]]:
+    """A Prefect server (``start_server``): yields the environment that points the CLI, workers and clients
+    at it (``PREFECT_API_URL``), and stops the server on exit."""
+    server = start_server(tmp, extra_env)
     try:
-        deadline = time.monotonic() + timeout
-        while True:
-            assert server.poll() is None, "prefect server exited"
-            try:
-                if httpx.get(f"{api}/health", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < deadline, f"prefect server at {api} did not become healthy in {timeout} s"
-            time.sleep(1)
-        yield {**env, "PREFECT_API_URL": api}
+        yield wait_healthy(server, timeout)
     finally:
-        stop(server)
+        stop(server.process)
+
+
+_SESSION_SERVER: list[Server] = []
+"""The session's server (``start_session_server``), once started."""
+
+
+def start_session_server() -> None:
+    """Start the session's server in the background (its home and database in a new temp dir), so that it
+    is up by the time the first test that needs it runs."""
+    if not _SESSION_SERVER:
+        _SESSION_SERVER.append(start_server(Path(tempfile.mkdtemp(prefix="rescene-prefect-server-"))))
+
+
+@contextmanager
+def session_server(timeout: float = 180) -> Iterator[dict[str, str]]:
+    """The session's server (started now unless it already was): yields its environment once it is healthy
+    and stops it on exit."""
+    start_session_server()
+    try:
+        yield wait_healthy(_SESSION_SERVER[0], timeout)
+    finally:
+        stop_session_server()
+
+
+def stop_session_server() -> None:
+    """Stop the session's server if it was started (again: nothing)."""
+    for server in _SESSION_SERVER:
+        stop(server.process)
 
 
 @contextmanager
