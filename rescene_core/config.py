@@ -487,12 +487,12 @@ class AttachmentConfig(_Section):
     Default: the paper's (Table 'Default attachment hyperparameters')."""
     restore_toward_evidence: bool = True
     """After depenetration, step each generated object back toward its registered place as far as its
-    contacts, the room and its neighbours allow (``assembly/restore.py``)."""
+    contacts, the room and its neighbours allow (``assembly/restore.py``). Default: the project's."""
     wall_contact_gap: float = 0.002
     """Gap (m) a repair leaves between an object and the wall it moves the object onto or back inside of
     (floor-snap footprint step, wall and corner snaps, outside repair): the smallest correction that makes
     contact. With the collision margin as the target every object standing against a wall was put 2 cm off it,
-    away from where the capture saw it."""
+    away from where the capture saw it. Default: the project's."""
     wall_corner_margin: float = 0.05
     """Wall corner margin (m). Default: the paper's (Table 'Default attachment hyperparameters')."""
     max_floor_snap: float = 1.40
