@@ -9,6 +9,7 @@ off, so the split deployment's nightly cron never starts a run in the middle of 
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -59,6 +60,7 @@ class Server:
 
     process: subprocess.Popen
     env: dict[str, str]
+    log: Path
 
 
 def start_server(tmp: Path, extra_env: dict[str, str] | None = None) -> Server:
@@ -81,7 +83,7 @@ def start_server(tmp: Path, extra_env: dict[str, str] | None = None) -> Server:
             [PREFECT, "server", "start", "--host", "127.0.0.1", "--port", str(port)],
             env=env, cwd=tmp, stdout=log, stderr=subprocess.STDOUT,
         )  # fmt: skip
-    return Server(process, {**env, "PREFECT_API_URL": f"http://127.0.0.1:{port}/api"})
+    return Server(process, {**env, "PREFECT_API_URL": f"http://127.0.0.1:{port}/api"}, tmp / "server.log")
 
 
 def wait_healthy(server: Server, timeout: float = 180) -> dict[str, str]:
@@ -89,7 +91,7 @@ def wait_healthy(server: Server, timeout: float = 180) -> dict[str, str]:
     api = server.env["PREFECT_API_URL"]
     deadline = time.monotonic() + timeout
     while True:
-        assert server.process.poll() is None, "prefect server exited"
+        assert server.process.poll() is None, f"prefect server exited:\n{server.log.read_text()[-3000:]}"
         try:
             if httpx.get(f"{api}/health", timeout=2).status_code == 200:
                 return server.env
@@ -133,9 +135,10 @@ def session_server(timeout: float = 180) -> Iterator[dict[str, str]]:
 
 
 def stop_session_server() -> None:
-    """Stop the session's server if it was started (again: nothing)."""
+    """Stop the session's server if it was started and remove its temp dir (again: nothing)."""
     for server in _SESSION_SERVER:
         stop(server.process)
+        shutil.rmtree(server.log.parent, ignore_errors=True)
 
 
 @contextmanager
