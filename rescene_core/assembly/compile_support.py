@@ -108,6 +108,16 @@ BOARD_BOX_MARGIN = 0.05
 """Parent points farther than this (m) outside the parent's registered mesh box are another object's."""
 
 
+def points_in_box(obj) -> NDArray[np.float64]:
+    """``obj``'s observed points [k, 3] (world) within BOARD_BOX_MARGIN of its mesh box at its registered
+    pose: farther ones are another object's (segmentation bleed)."""
+    pts = np.asarray(obj.points, dtype=np.float64)
+    local = apply(inverse(obj.world_from_asset), pts)
+    margin = BOARD_BOX_MARGIN / scale_of(obj.world_from_asset)
+    lo, hi = obj.vertices.min(axis=0) - margin, obj.vertices.max(axis=0) + margin
+    return pts[np.all((local >= lo) & (local <= hi), axis=1)]
+
+
 def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId) -> SupportLevel | None:
     """A horizontal support plane of ``parent`` under ``child`` from the parent's observed points (a shelf
     board the capture saw but the generated mesh lacks), at the parent's current pose; None without
@@ -121,11 +131,7 @@ def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId)
     pobj, cobj, room = state.objects[parent], state.objects[child], state.room
     if pobj.points is None or len(pobj.points) == 0:
         return None
-    pts = np.asarray(pobj.points, dtype=np.float64)
-    local = apply(inverse(pobj.world_from_asset), pts)
-    margin = BOARD_BOX_MARGIN / scale_of(pobj.world_from_asset)
-    lo, hi = pobj.vertices.min(axis=0) - margin, pobj.vertices.max(axis=0) + margin
-    pts = pts[np.all((local >= lo) & (local <= hi), axis=1)]
+    pts = points_in_box(pobj)
     seen = cobj.world_vertices()
     region = footprint(seen).buffer(BOARD_REGION)
     pts = pts[shapely.contains_xy(region, pts[:, 0], pts[:, 1])]
@@ -230,11 +236,7 @@ def parent_seen_under(state: LayoutState, parent: InstanceId, child: InstanceId)
     pobj = state.objects[parent]
     if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
         return False
-    pts = np.asarray(pobj.points, dtype=np.float64)
-    local = apply(inverse(pobj.world_from_asset), pts)
-    margin = BOARD_BOX_MARGIN / scale_of(pobj.world_from_asset)
-    lo, hi = pobj.vertices.min(axis=0) - margin, pobj.vertices.max(axis=0) + margin
-    pts = pts[np.all((local >= lo) & (local <= hi), axis=1)]
+    pts = points_in_box(pobj)
     if len(pts) < BOARD_MIN_POINTS:
         return False
     hull = shapely.MultiPoint(pts[:, :2]).convex_hull
