@@ -28,11 +28,12 @@ from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
+from rescene_core.assembly.evidence import points_in_box
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import level_correction, translation
-from rescene_core.geometry.sim3 import apply, inverse, scale_of
+from rescene_core.geometry.sim3 import apply, inverse
 from rescene_core.records import Completion, CompletionKind, Edge, InstanceId
 
 
@@ -104,18 +105,6 @@ BOARD_MIN_RATIO = 1.6
 or from above is a band of points at one height, a side panel spreads its points over every height."""
 BOARD_REGION = 0.30
 """Parent points within this distance (m) of the child's footprint are the evidence for its plane."""
-BOARD_BOX_MARGIN = 0.05
-"""Parent points farther than this (m) outside the parent's registered mesh box are another object's."""
-
-
-def points_in_box(obj) -> NDArray[np.float64]:
-    """``obj``'s observed points [k, 3] (world) within BOARD_BOX_MARGIN of its mesh box at its registered
-    pose: farther ones are another object's (segmentation bleed)."""
-    pts = np.asarray(obj.points, dtype=np.float64)
-    local = apply(inverse(obj.world_from_asset), pts)
-    margin = BOARD_BOX_MARGIN / scale_of(obj.world_from_asset)
-    lo, hi = obj.vertices.min(axis=0) - margin, obj.vertices.max(axis=0) + margin
-    return pts[np.all((local >= lo) & (local <= hi), axis=1)]
 
 
 def board_from_points(state: LayoutState, parent: InstanceId, child: InstanceId) -> SupportLevel | None:
@@ -232,7 +221,7 @@ parent's observed points for the parent's face to be extended under it."""
 def parent_seen_under(state: LayoutState, parent: InstanceId, child: InstanceId) -> bool:
     """Whether the capture saw ``parent`` under ``child``'s registered place: the child's registered
     footprint centre lies within EXTENSION_SEEN_MARGIN of the horizontal hull of the parent's observed points
-    (those within BOARD_BOX_MARGIN of its registered mesh box: bleed from other objects left out)."""
+    (``evidence.points_in_box``: bleed from other objects left out)."""
     pobj = state.objects[parent]
     if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
         return False

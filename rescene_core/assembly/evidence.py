@@ -217,3 +217,51 @@ def evidence_refuses(state: LayoutState, i: InstanceId, new_pose: NDArray) -> st
         f"the correction would leave {1 - after:.0%} of the object's observed points outside its mesh "
         f"(registered: {1 - before:.0%}); the mesh lacks part of the object, so it keeps its registered pose"
     )
+
+
+SEEN_BOX_MARGIN = 0.05
+"""Observed points farther than this (m) outside an object's registered mesh box are another object's
+(segmentation bleed), not evidence of where it stands."""
+SNAP_MAX_LEFT_BEHIND = 0.3
+"""A wall or corner snap of a generated asset may leave at most this share of the points its registered mesh
+box held (within POINTS_FIT_MARGIN) outside the box: a larger share means the mesh is thinner than the
+object (a bookshelf generated as a slab of its front), and pushing the slab to the wall moves it away from
+the front the capture saw."""
+
+
+def points_in_box(obj) -> NDArray[np.float64]:
+    """``obj``'s observed points [k, 3] (world) within SEEN_BOX_MARGIN of its mesh box at its registered
+    pose: farther ones are another object's (segmentation bleed)."""
+    pts = np.asarray(obj.points, dtype=np.float64)
+    local = apply(inverse(obj.world_from_asset), pts)
+    margin = SEEN_BOX_MARGIN / scale_of(obj.world_from_asset)
+    lo, hi = obj.vertices.min(axis=0) - margin, obj.vertices.max(axis=0) + margin
+    return pts[np.all((local >= lo) & (local <= hi), axis=1)]
+
+
+def snap_refuses(state: LayoutState, i: InstanceId, new_pose: NDArray) -> str | None:
+    """Why a wall or corner snap of generated object i to ``new_pose`` [4, 4] leaves its observed points
+    behind (SNAP_MAX_LEFT_BEHIND), or None. Only the points near its registered mesh box count, so stray
+    points of other objects neither refuse nor allow a snap."""
+    obj = state.objects[i]
+    if obj.exact_shape or obj.points is None or len(obj.points) == 0:
+        return None
+    seen = points_in_box(obj)
+    if len(seen) == 0:
+        return None
+    held_now = _held(obj, state.pose(i), seen)
+    held_after = _held(obj, new_pose, seen)
+    if held_now - held_after <= SNAP_MAX_LEFT_BEHIND:
+        return None
+    return (
+        f"the snap would leave {held_now - held_after:.0%} of the points its mesh box holds outside it (the "
+        "mesh is thinner than the object the capture saw); it keeps its place"
+    )
+
+
+def _held(obj, world_from_asset: NDArray, points: NDArray) -> float:
+    """Share of world ``points`` [n, 3] within POINTS_FIT_MARGIN of ``obj``'s mesh box at ``world_from_asset``."""
+    local = apply(inverse(world_from_asset), points)
+    margin = POINTS_FIT_MARGIN / scale_of(world_from_asset)
+    lo, hi = obj.vertices.min(axis=0) - margin, obj.vertices.max(axis=0) + margin
+    return float(np.mean(np.all((local >= lo) & (local <= hi), axis=1)))

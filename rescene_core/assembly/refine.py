@@ -20,7 +20,13 @@ import numpy as np
 
 from rescene_core.assembly.compile_floor import inner_polygon
 from rescene_core.assembly.compile_wall import horizontal_axes
-from rescene_core.assembly.evidence import completion_crossing, containment_footprint, wall_gap, yaw_to_direction
+from rescene_core.assembly.evidence import (
+    completion_crossing,
+    containment_footprint,
+    snap_refuses,
+    wall_gap,
+    yaw_to_direction,
+)
 from rescene_core.assembly.room import Wall, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import rotation_about, translation
@@ -87,9 +93,14 @@ def wall_snap(state: LayoutState, i: InstanceId, max_gap: float, max_rot: float,
         return False
     if abs(push) < 1e-6 and abs(yaw) < 1e-9:
         return False
+    snap = translation(push * wall.normal) @ turn
+    refused = snap_refuses(state, i, snap @ pose)
+    if refused is not None:
+        state.skip(i, stage, refused)
+        return False
     state.move(
         i,
-        translation(push * wall.normal) @ turn,
+        snap,
         stage,
         "snap to wall",
         wall_id=wall.id,
@@ -154,8 +165,13 @@ def cabinet_corner(state: LayoutState) -> None:
         if np.linalg.norm(step) > cfg.cabinet_corner_translation:
             state.skip(i, "cabinet corner", f"corner needs {np.linalg.norm(step):.3f} m")
             continue
-        if np.linalg.norm(step) > 1e-6:
-            state.move(i, translation(step), "cabinet corner", "snap into corner", walls=[w1.id, w2.id])
+        if np.linalg.norm(step) <= 1e-6:
+            continue
+        refused = snap_refuses(state, i, translation(step) @ state.pose(i))
+        if refused is not None:
+            state.skip(i, "cabinet corner", refused)
+            continue
+        state.move(i, translation(step), "cabinet corner", "snap into corner", walls=[w1.id, w2.id])
 
 
 def containment_region(state: LayoutState, i: InstanceId):

@@ -10,6 +10,7 @@ import pytest
 from rescene_core.assembly import attach
 from rescene_core.assembly.collision import CollisionWorld
 from rescene_core.assembly.graph import build_forest
+from rescene_core.assembly.refine import wall_snap
 from rescene_core.assembly.restore import restore_toward_evidence
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.scenes import box_object, placed, rect_room
@@ -142,3 +143,22 @@ def test_a_top_too_low_gives_way_to_the_surface_its_points_show():
     assert bottom == pytest.approx(0.70, abs=0.01)  # not dropped 5 cm onto the generated top
     planes = [c for c in layout.completions()[int(T)] if c.kind is CompletionKind.SUPPORT_PLANE]
     assert len(planes) == 1
+
+
+@pytest.mark.parametrize(("depth", "snapped"), [(0.07, False), (0.4, True)])
+def test_a_wall_snap_keeps_the_points_its_mesh_held(depth, snapped):
+    """A bookshelf generated as a 7 cm slab of its seen front, registered 13 cm off the wall: pushing the
+    slab to the wall leaves its points in front of it, so it keeps its place; a box as deep as its points
+    is snapped."""
+    rng = np.random.default_rng(3)
+    y = 0.13 + depth / 2  # back 13 cm off the y = 0 wall
+    shelf = _seen(box_object(1, "bookshelf", (0.7, depth, 1.7), placed(2.0, y)), rng)
+    state, _ = _state({A: shelf})
+    moved = wall_snap(state, A, max_gap=0.3, max_rot=np.radians(10.0), max_move=0.3, stage="test")
+    assert moved is snapped
+    back = state.vertices(A)[:, 1].min()
+    if snapped:
+        assert back == pytest.approx(state.config.wall_contact_gap, abs=1e-6)
+    else:
+        assert back == pytest.approx(0.13, abs=1e-9)
+        assert any(op.rule == "skip" and "thinner than the object" in op.details["reason"] for op in state.operations)
