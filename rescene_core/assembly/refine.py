@@ -223,9 +223,10 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
     A repair that turns or moves a parent takes its children along (a dining table squared to a wall by
     19 deg swings a monitor near its edge by ~0.4 m), but a child was registered on its own points:
     ``compile_support`` puts it back over its registered centre (or the nearest point of the face) at the
-    face's height, unless that would leave its observed points behind (``evidence.evidence_refuses``).
-    Parents before children."""
-    from rescene_core.assembly.compile_support import compile_support
+    face's height, unless that would leave its observed points behind (``evidence.evidence_refuses``): then
+    it keeps its registered pose, on a support plane at its registered bottom when that lies inside its
+    parent (``compile_support.board_at_child``). Parents before children."""
+    from rescene_core.assembly.compile_support import board_at_child, compile_support
     from rescene_core.assembly.evidence import evidence_refuses
 
     for child, edge in state.forest.edges.items():
@@ -242,5 +243,14 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
             # nor does it follow its parent's repairs: it stays where it was seen
             back = state.objects[child].world_from_asset @ np.linalg.inv(state.pose(child))
             state.move(child, back, stage, "keep registered pose", parent=int(edge.parent))
+            # where it was seen standing inside its parent, the parent has a shelf its mesh lacks
+            if board_at_child(state, InstanceId(edge.parent), child) is not None:
+                state.log(
+                    child,
+                    stage,
+                    "on a shelf at its registered bottom",
+                    parent=int(edge.parent),
+                    support_plane="the child's registered bottom, where it keeps its registered pose",
+                )
             continue
         state.move(child, correction, stage, "back on parent's face", parent=int(edge.parent))

@@ -162,3 +162,31 @@ def test_a_wall_snap_keeps_the_points_its_mesh_held(depth, snapped):
     else:
         assert back == pytest.approx(0.13, abs=1e-9)
         assert any(op.rule == "skip" and "thinner than the object" in op.details["reason"] for op in state.operations)
+
+
+def test_a_child_kept_at_its_registered_pose_stands_on_a_shelf_there():
+    """Two book stacks seen on two shelves 9 cm apart inside a bookshelf generated without boards: the upper
+    one's nearest face is the lower one's shelf, which would leave its points above it, so it keeps its
+    registered pose and stands on a support plane at its registered bottom."""
+    rng = np.random.default_rng(4)
+    shelf = _seen(box_object(1, "bookshelf", (0.8, 0.35, 1.7), placed(2.0, 0.3)), rng)
+    low = _seen(box_object(2, "book stack", (0.2, 0.25, 0.08), placed(1.75, 0.3, 1.2)), rng)
+    high = _seen(box_object(3, "book stack", (0.2, 0.25, 0.08), placed(2.2, 0.3, 1.29)), rng)
+    objects = {A: shelf, B: low, T: high}
+    graph = SceneGraph(
+        (
+            Edge(A, Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(B, Relation.RESTS_ON, A, 0.9),
+            Edge(T, Relation.RESTS_ON, A, 0.9),
+        )
+    )
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    np.testing.assert_allclose(layout.world_from_asset[T], high.world_from_asset, atol=1e-9)
+    planes = [c for c in layout.completions()[A] if c.kind is CompletionKind.SUPPORT_PLANE]
+    heights = sorted(
+        float(np.mean((layout.world_from_asset[A] @ np.c_[c.points_asset, np.ones(len(c.points_asset))].T)[2]))
+        for c in planes
+    )
+    assert any(h == pytest.approx(1.29, abs=1e-6) for h in heights)
+    metrics = structural_metrics(metric_objects(objects, layout), layout.world_from_asset, graph, rect_room())
+    assert int(T) not in metrics["contact_failures"]["support"]
