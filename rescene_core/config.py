@@ -548,6 +548,23 @@ class AttachmentConfig(_Section):
     wall_normal_weight: float = 0.5
     """Wall resolution: metres of coplanarity residual one radian of normal mismatch costs.
     Default: the project's choice."""
+    wall_side_min_gain: float | None = 0.02
+    """Generated wall objects with observed points: the wall rule turns the object onto another side than
+    its dominant vertical face direction (a horizontal asset axis onto the wall's normal, more than 10 deg
+    from it, within max_wall_yaw_deg) when that side, put on the wall, has its mesh box explain at least
+    this larger share of the points (``assembly/wall_evidence.py``: marching-cubes bevels outweigh a small shelf's sides).
+    None: the face direction alone. Default: the project's choice."""
+    wall_points_max_gap: float | None = 0.45
+    """A generated object on a ``mounts-on wall`` edge whose observed points come no nearer to its resolved
+    wall than this (m, their 5th percentile distance) contradicts the edge: it keeps its registered pose and
+    the skip names the reason (a deep wall cabinet seen only from the front is seen about its depth off the
+    wall). None: never refused. Default: the project's choice (the paper's near-wall snap distance)."""
+    wall_evidence_turn_min_gain: float | None = 0.20
+    """Before the rules run, a generated object on a ``mounts-on wall`` edge at least wall_confidence_min
+    confident is turned beyond max_wall_yaw_deg onto a side of its mesh when that side, put on the wall its
+    points lie on, has its mesh box explain at least this larger share of its points than any side within
+    the limit: its registration turned it (a picture slab registered edge-on to its flat points). None:
+    never. Default: the project's choice."""
     support_normal_deg: float = 10.0
     """Parent faces whose normal is within this angle of the floor normal are support faces (deg).
     Default: the project's choice."""

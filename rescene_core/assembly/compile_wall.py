@@ -13,6 +13,10 @@ clamped so the object stays ``wall_corner_margin`` m inside the segment ends; ob
 their original order ``contact_gap`` apart (``keep_lateral_order``; objects hanging one above the other
 are left to depenetration).
 
+Back side of a generated asset: its dominant vertical face direction, or, when another side (a horizontal
+asset axis more than 10 deg from it) put on the wall explains clearly more of its observed points, that
+side (``rescene_core.assembly.wall_evidence``); points far off the wall refuse the rule.
+
 Closed-form minimiser: level (as for the floor), yaw the back axis onto the outward normal, translate
 along the normal until the back surface lies on the plane, translate along the wall to the lateral target,
 and keep the object above the floor (and below the ceiling when known).
@@ -36,6 +40,7 @@ from rescene_core.assembly.transforms import (
     signed_yaw,
     translation,
 )
+from rescene_core.assembly.wall_evidence import points_off_wall, wall_side_yaw
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import Edge, InstanceId, Relation, Root
 
@@ -157,7 +162,11 @@ def compile_wall(
         return None, {"reason": "no wall resolved for this edge"}
     cfg, room, wall = state.config, state.room, plan.wall
     obj = state.objects[child]
+    contradiction = points_off_wall(obj, wall, cfg.wall_points_max_gap)
+    if contradiction is not None:
+        return None, {"reason": contradiction}
     pose = state.pose(child)
+    side: dict[str, Any] = {}
     verts = state.vertices(child)
     pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
     correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
@@ -165,7 +174,10 @@ def compile_wall(
         axis = plan.sign * (correction @ pose)[:3, plan.axis]
         yaw = signed_yaw(axis, -wall.normal, room.up)
     else:  # generated asset: the back face is read from the mesh faces (none found: keep the yaw)
-        yaw = face_yaw(state, child, -wall.normal, np.radians(cfg.max_wall_yaw_deg)) or 0.0
+        faces = face_yaw(state, child, -wall.normal, np.radians(cfg.max_wall_yaw_deg))
+        yaw, side = wall_side_yaw(
+            obj, correction @ pose, wall, room.up, faces, np.radians(cfg.max_wall_yaw_deg), cfg.wall_side_min_gain
+        )
     yaw = float(np.clip(yaw, -np.radians(cfg.max_wall_yaw_deg), np.radians(cfg.max_wall_yaw_deg)))
     correction = rotation_about(yaw * room.up, pivot) @ correction
     moved = apply(correction @ pose, obj.vertices)
@@ -192,5 +204,6 @@ def compile_wall(
         "normal_m": push,
         "along_m": slide,
         "vertical_m": lift,
+        **side,
     }
     return correction, info

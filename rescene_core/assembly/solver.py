@@ -45,6 +45,7 @@ from rescene_core.assembly.restore import restore_toward_evidence
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.trim import cut_overlaps, room_cuts, top_cuts, trimmed
+from rescene_core.assembly.wall_evidence import turn_to_wall_evidence
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
@@ -195,6 +196,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
             missing.append(Missing(InstanceId(int(key)), "assembly", "; ".join(problems)))
         else:
             valid[InstanceId(int(key))] = obj
+    valid, turned = turn_to_wall_evidence(valid, graph, room, config)
     cuts = {i: room_cuts(obj, room) for i, obj in valid.items()} if config.trim_completions else {}
     valid = {i: trimmed(obj, cuts.get(i, [])) for i, obj in valid.items()}
     forest = build_forest(graph, set(valid))
@@ -203,6 +205,8 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
             cuts.setdefault(i, []).append(cut)
             valid[i] = trimmed(valid[i], [cut])
     base = LayoutState(valid, forest, room, config)
+    for i, info in turned:
+        base.log(i, "wall evidence", "turn onto the side its points show", **info)
     for i in sorted(cuts):
         for cut in cuts[i]:
             base.add_completion(cut)

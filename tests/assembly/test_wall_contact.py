@@ -1,0 +1,132 @@
+"""Wall contact of generated objects decided by their observed points (``assembly/wall_evidence.py``): the
+side that faces the wall, a turn beyond the yaw limit where the registration turned the object, and
+points that contradict the edge."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import trimesh
+
+from rescene_core.assembly import AssemblyObject, attach
+from rescene_core.assembly.room import room_from_shell
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.assembly.transforms import nearest_axis, signed_yaw
+from rescene_core.assembly.wall_evidence import turn_to_wall_evidence
+from rescene_core.bench.assembly import metric_objects
+from rescene_core.config import AttachmentConfig
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+
+WALL_NORMAL = np.array([0.0, 1.0, 0.0])
+"""Wall 0 of ``rect_room`` is the plane y = 0, its normal +y into the room."""
+
+
+def _picture(rng, registered_yaw_deg: float, points_y: float = 0.015, confidence: float = 0.9):
+    """A 0.6 x 0.03 x 0.45 m picture on wall 0 at x = 2, seen as a flat, noisy sheet of points; its generated
+    slab registered at the points' centre but turned ``registered_yaw_deg`` (90: edge-on to the wall)."""
+    pts = np.c_[rng.uniform(1.7, 2.3, 3000), points_y + rng.normal(0.0, 0.03, 3000), rng.uniform(1.5, 1.95, 3000)]
+    obj = box_object(1, "picture", (0.6, 0.03, 0.45), placed(2.0, points_y, 1.5, registered_yaw_deg), exact_shape=False)
+    obj = replace(obj, points=pts)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, confidence, wall_id=0),))
+    return {obj.instance: obj}, graph, rect_room()
+
+
+def _bevelled_shelf(rng, registered_yaw_deg: float = 20.0):
+    """A 0.4 x 0.4 x 0.2 m wall shelf on wall 0 at x = 2, z 1.4-1.6, seen on its front, top and bottom.
+    Its generated mesh is the box with its vertical edges bevelled at 45 deg (13 cm chamfers, as marching
+    cubes bevels a small object), so the bevels hold more vertical area than any pair of sides; registered
+    ``registered_yaw_deg`` off the wall at the points' centre."""
+    h, c = 0.2, 0.13
+    octagon = [(sx * h, sy * (h - c)) for sx in (-1, 1) for sy in (-1, 1)]
+    octagon += [(sx * (h - c), sy * h) for sx in (-1, 1) for sy in (-1, 1)]
+    hull = trimesh.convex.convex_hull(np.array([(x, y, z) for x, y in octagon for z in (0.0, 0.2)]))
+    front = np.c_[rng.uniform(1.8, 2.2, 1500), np.full(1500, 0.4), rng.uniform(1.4, 1.6, 1500)]
+    top = np.c_[rng.uniform(1.8, 2.2, 1500), rng.uniform(0.0, 0.4, 1500), np.full(1500, 1.6)]
+    bottom = np.c_[rng.uniform(1.8, 2.2, 800), rng.uniform(0.0, 0.4, 800), np.full(800, 1.4)]
+    pts = np.vstack([front, top, bottom]) + rng.normal(0.0, 0.005, (3800, 3))
+    obj = AssemblyObject(
+        InstanceId(1),
+        "wall shelf",
+        np.asarray(hull.vertices, np.float64),
+        np.asarray(hull.faces, np.int64),
+        placed(2.0, 0.2, 1.4, registered_yaw_deg),
+        exact_shape=False,
+        points=pts,
+    )
+    graph = SceneGraph((Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, 0.98, wall_id=0),))
+    return {obj.instance: obj}, graph, rect_room()
+
+
+def _wall_pass(objects, graph, shell, config: AttachmentConfig) -> tuple[bool, float]:
+    """(wall contact passes, angle in deg between the asset axis nearest the wall normal and the normal)."""
+    layout = attach(objects, graph, shell, config)
+    metrics = structural_metrics(metric_objects(objects, layout), layout, graph, shell)
+    pose = layout.world_from_asset[InstanceId(1)]
+    _, _, axis = nearest_axis(pose, WALL_NORMAL, (0, 1))
+    return metrics["wall_contact_pass"] == 1.0, abs(np.degrees(signed_yaw(axis, WALL_NORMAL, np.array([0, 0, 1.0]))))
+
+
+def test_picture_registered_edge_on_is_turned_flat_onto_its_wall():
+    objects, graph, shell = _picture(np.random.default_rng(0), registered_yaw_deg=70.0)
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig())
+    assert ok and angle < 1.0
+    # the turn is the points' doing: without it the 70 deg error is beyond the paper's 35 deg yaw limit
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig(wall_evidence_turn_min_gain=None))
+    assert not ok and angle > 5.0
+
+
+def test_turn_beyond_the_limit_is_logged_and_only_for_confident_edges():
+    objects, graph, shell = _picture(np.random.default_rng(1), registered_yaw_deg=75.0)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    turns = [op for op in layout.operations if op["stage"] == "wall evidence"]
+    assert len(turns) == 1 and turns[0]["wall_id"] == 0
+    assert abs(abs(turns[0]["yaw_deg"]) - 75.0) < 1.0 and turns[0]["fit_turned"] > turns[0]["fit_within_limit"]
+    weak = SceneGraph((replace(graph.edges[0], confidence=0.5),))
+    out, done = turn_to_wall_evidence(objects, weak, room_from_shell(shell), AttachmentConfig())
+    assert done == [] and out[InstanceId(1)] is objects[InstanceId(1)]
+
+
+def test_picture_turned_within_the_limit_keeps_its_usual_turn():
+    # a 20 deg registration error is the wall rule's to square (no turn before the rules)
+    objects, graph, shell = _picture(np.random.default_rng(2), registered_yaw_deg=20.0)
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    assert not [op for op in layout.operations if op["stage"] == "wall evidence"]
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig())
+    assert ok and angle < 5.0
+
+
+def test_bevelled_shelf_hangs_by_the_side_its_points_show_not_its_bevels():
+    objects, graph, shell = _bevelled_shelf(np.random.default_rng(3))
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig())
+    assert ok and angle < 1.0
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    (op,) = [op for op in layout.operations if op["stage"] == "wall attachment" and op["rule"] != "skip"]
+    assert op["side_from_points"].startswith("asset axis") and op["side_fit"] > op["faces_fit"]
+    # the dominant face direction alone squares a bevel to the wall: the shelf hangs 45 deg off it
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig(wall_side_min_gain=None))
+    assert not ok and abs(angle - 45.0) < 5.0
+
+
+def test_points_far_from_the_wall_contradict_the_edge_and_keep_the_registered_pose():
+    # the capture saw the 'picture' 1.2 m into the room: the mounts-on wall edge is wrong. Registered edge-on,
+    # its slab explains few of its points anywhere, so the bound on the points' share does not refuse the move
+    objects, graph, shell = _picture(np.random.default_rng(4), registered_yaw_deg=90.0, points_y=1.2)
+    layout = attach(objects, graph, shell, AttachmentConfig(dual_attachment=False))
+    pose = layout.world_from_asset[InstanceId(1)]
+    np.testing.assert_allclose(pose, objects[InstanceId(1)].world_from_asset, atol=1e-9)
+    skips = [op for op in layout.operations if op["stage"] == "wall attachment" and op["rule"] == "skip"]
+    assert len(skips) == 1 and "contradict the mounts-on wall edge" in skips[0]["reason"]
+    # without the check the wall rule pulls it 1.2 m onto the wall
+    layout = attach(objects, graph, shell, AttachmentConfig(dual_attachment=False, wall_points_max_gap=None))
+    pulled = objects[InstanceId(1)].world_vertices(layout.world_from_asset[InstanceId(1)])
+    assert pulled[:, 1].min() < 0.05
+
+
+def test_objects_without_points_keep_the_face_direction_rule():
+    objects, graph, shell = _bevelled_shelf(np.random.default_rng(5))
+    bare = {i: replace(o, points=None) for i, o in objects.items()}
+    with_rule = attach(bare, graph, shell, AttachmentConfig()).world_from_asset[InstanceId(1)]
+    without = attach(bare, graph, shell, AttachmentConfig(wall_side_min_gain=None)).world_from_asset[InstanceId(1)]
+    np.testing.assert_allclose(with_rule, without, atol=1e-12)
