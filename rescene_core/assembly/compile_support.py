@@ -233,6 +233,45 @@ def parent_seen_under(state: LayoutState, parent: InstanceId, child: InstanceId)
     return bool(hull.buffer(EXTENSION_SEEN_MARGIN).contains(centre))
 
 
+LEVEL_BAND = (0.04, 0.015)
+"""Parent points from this far (m) below to this far above a child's registered bottom are its top surface
+at the child's level (the child occludes the surface right under it, not the surface around it)."""
+LEVEL_REGION = 0.05
+"""... when they lie within this distance (m) of the child's registered footprint."""
+LEVEL_EXTENSION_MAX = 0.30
+"""Farthest (m) a parent's top is grown to reach a child's registered centre when the parent's top surface
+was seen around the child (``level_seen_around``): a generated parent that is a slab of its seen front
+(a cabinet 4 cm deep against a wall) has its real top behind the child."""
+
+
+def level_seen_around(state: LayoutState, parent: InstanceId, child: InstanceId) -> float | None:
+    """Height (m above the floor) of ``parent``'s surface the capture saw around ``child``'s registered
+    footprint at the child's registered bottom: the upper quartile of the heights of the parent's observed
+    points within LEVEL_REGION of the footprint and within LEVEL_BAND of the bottom, when there are at least
+    BOARD_MIN_POINTS of them and their horizontal hull reaches within EXTENSION_SEEN_MARGIN of the footprint's
+    centre; else None."""
+    pobj, room = state.objects[parent], state.room
+    if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
+        return None
+    seen = state.objects[child].world_vertices()
+    bottom = float(room.floor_distance(seen).min())
+    pts = np.asarray(pobj.points, dtype=np.float64)
+    heights = room.floor_distance(pts)
+    band = (heights >= bottom - LEVEL_BAND[0]) & (heights <= bottom + LEVEL_BAND[1])
+    if int(band.sum()) < BOARD_MIN_POINTS:
+        return None
+    fp = footprint(seen)
+    around = shapely.contains_xy(fp.buffer(LEVEL_REGION), pts[band, 0], pts[band, 1])
+    if int(around.sum()) < BOARD_MIN_POINTS:
+        return None
+    # the surface must reach the child's centre (EXTENSION_SEEN_MARGIN): a top that ends under the child
+    # does not carry it
+    hull = shapely.MultiPoint(pts[band][around][:, :2]).convex_hull
+    if not hull.buffer(EXTENSION_SEEN_MARGIN).contains(fp.centroid):
+        return None
+    return float(np.percentile(heights[band][around], 75))
+
+
 def extend_under_child(
     state: LayoutState, parent: InstanceId, child: InstanceId, level: SupportLevel
 ) -> SupportLevel | None:
@@ -241,13 +280,15 @@ def extend_under_child(
     parent's generated top is too small, or a repair moved the parent, not the child, off the evidence. The
     grown face (the convex hull of the face and the child's registered footprint, at the face's height) is a
     ``support plane`` completion in the parent's asset frame, which exporters add as a board; None: no
-    evidence, or the centre more than EXTENSION_MAX off the face; the child goes to the nearest point of the
-    face."""
+    evidence, or the centre more than EXTENSION_MAX off the face (LEVEL_EXTENSION_MAX when the parent's top
+    was seen around the child, ``level_seen_around``); the child goes to the nearest point of the face."""
     room = state.room
     seen = footprint(state.objects[child].world_vertices())
-    if level.polygon.distance(seen.centroid) > EXTENSION_MAX:
+    reach = level.polygon.distance(seen.centroid)
+    if reach > LEVEL_EXTENSION_MAX or abs(room.up[2]) < 1e-9:
         return None
-    if abs(room.up[2]) < 1e-9 or not parent_seen_under(state, parent, child):
+    at_level = level_seen_around(state, parent, child) is not None
+    if not at_level and (reach > EXTENSION_MAX or not parent_seen_under(state, parent, child)):
         return None
     grown = shapely.union_all([level.polygon, seen]).convex_hull
     if not isinstance(grown, Polygon) or grown.is_empty:
@@ -336,17 +377,22 @@ def compile_support(
                 )
             }
     level = min(feasible, key=lambda lv: abs(lv.height - seen_bottom)) if feasible else levels[0]
-    if (
-        parent_generated
-        and not obj.exact_shape
-        and board is None
-        and abs(level.height - seen_bottom) > TOP_FIT_MARGIN
-        and level.height >= levels[0].height - cfg.support_level_tolerance
-    ):
-        # a generated top too high or too low where the parent's points show the surface the child stands on
-        seen_board = board_from_points(state, parent, child)
-        if seen_board is not None and abs(seen_board.height - seen_bottom) < abs(level.height - seen_bottom):
+    off_by = abs(level.height - seen_bottom)
+    if parent_generated and not obj.exact_shape and board is None and off_by > TOP_FIT_MARGIN:
+        # a generated face too high or too low where the parent's points show the surface the child stands on:
+        # at its top, the points in the parent's box; anywhere (a stepped top, a slab of the parent's seen
+        # front without points of its top in its box), those around the child at its registered bottom
+        seen_board = None
+        if level.height >= levels[0].height - cfg.support_level_tolerance:
+            seen_board = board_from_points(state, parent, child)
+        if seen_board is not None and abs(seen_board.height - seen_bottom) < off_by:
             level, board, evidence = seen_board, seen_board, "the parent's observed points at its top"
+        else:
+            around = level_seen_around(state, parent, child)
+            if around is not None and abs(around - seen_bottom) < off_by:
+                plane = plane_at(state, parent, child, around, "the parent's top seen around the child")
+                if plane is not None:
+                    level, board, evidence = plane, plane, "the parent's observed points around the child"
     lift = float(np.clip(level.height - bottom, -cfg.max_support_snap, cfg.max_support_snap))
     # the child's registered centre is the evidence of where it stands (evidence.py), not where its
     # parent's corrections carried it; an exact shape's whole footprint then goes onto the face

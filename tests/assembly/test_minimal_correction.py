@@ -190,3 +190,25 @@ def test_a_child_kept_at_its_registered_pose_stands_on_a_shelf_there():
     assert any(h == pytest.approx(1.29, abs=1e-6) for h in heights)
     metrics = structural_metrics(metric_objects(objects, layout), layout.world_from_asset, graph, rect_room())
     assert int(T) not in metrics["contact_failures"]["support"]
+
+
+def test_a_child_beyond_a_slab_parent_stands_where_the_parent_top_was_seen():
+    """A cabinet generated as a 5 cm slab of its seen front (top at 0.75 m) whose points show its real top at
+    0.78 m reaching 0.45 m back, and a lamp registered on that top 0.175 m beyond the slab: the lamp stays
+    where it was seen, on a support plane at the seen top, not on the slab's edge."""
+    rng = np.random.default_rng(5)
+    cabinet = box_object(1, "cabinet", (0.8, 0.05, 0.75), placed(2.0, 0.3), exact_shape=False)
+    top = np.c_[rng.uniform(1.6, 2.4, 2000), rng.uniform(0.275, 0.75, 2000), np.full(2000, 0.78)]
+    cabinet = replace(cabinet, points=top)
+    lamp = _seen(box_object(2, "table lamp", (0.2, 0.2, 0.4), placed(2.0, 0.5, 0.78)), rng)
+    graph = SceneGraph((Edge(A, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(B, Relation.RESTS_ON, A, 0.9)))
+    layout = attach({A: cabinet, B: lamp}, graph, rect_room(), AttachmentConfig())
+    v = lamp.world_vertices(layout.world_from_asset[B])
+    assert 0.5 * (v[:, 1].min() + v[:, 1].max()) == pytest.approx(0.5, abs=1e-3)
+    assert v[:, 2].min() == pytest.approx(0.78, abs=0.005)
+    planes = [c for c in layout.completions()[A] if c.kind is CompletionKind.SUPPORT_PLANE]
+    assert planes
+    metrics = structural_metrics(
+        metric_objects({A: cabinet, B: lamp}, layout), layout.world_from_asset, graph, rect_room()
+    )
+    assert int(B) not in metrics["contact_failures"]["support"]
