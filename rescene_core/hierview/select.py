@@ -107,6 +107,7 @@ def _select_one(
     semantic: dict[int, NDArray[np.float64]],
     backend_name: str,
     backend_note: str,
+    calibrated: bool = True,
 ) -> ViewChoice | Missing:
     area = stats.area[:, k]
     frames = np.flatnonzero(area > 0)
@@ -154,12 +155,17 @@ def _select_one(
                 rank[order] = np.arange(1, len(vis_idx) + 1)
                 rank_full[vis_idx] = rank
                 keep = (s >= config.tau_s) | (rank <= config.semantic_rank_keep)
+                if not calibrated:
+                    # a score that only ranks this instance's views: tau_s means nothing to it, and the top
+                    # ranks alone keep near-ties (close-up crops of large furniture); the better half passes
+                    keep |= s >= np.median(s)
                 if keep.sum() < config.semantic_min_keep:
                     keep = rank <= min(config.semantic_min_keep, len(vis_idx))
                 pool = vis_idx[keep]
+                median_rule = "" if calibrated else " or p >= the instance's median"
                 notes.append(
                     f"semantic ({backend_name}) kept {len(pool)}/{len(vis_idx)} views "
-                    f"(p >= {config.tau_s} or rank <= {config.semantic_rank_keep})"
+                    f"(p >= {config.tau_s} or rank <= {config.semantic_rank_keep}{median_rule})"
                 )
             else:
                 notes.append("no semantic stage")
@@ -242,11 +248,12 @@ def select_views(
         return out
     stats = frame_stats(capture, wanted, config.max_points)
     semantic: dict[int, NDArray[np.float64]] = {}
-    backend_name, note = "none", ""
+    backend_name, note, calibrated = "none", "", True
     if config.method == "hierview":
         if scorer is None:
             scorer, note = make_scorer(config)
         backend_name = scorer.name
+        calibrated = bool(getattr(scorer, "calibrated", True))
         requests: dict[int, NDArray[np.int64]] = {}
         for inst_id in wanted:
             k = stats.table.index_of(inst_id)
@@ -262,5 +269,6 @@ def select_views(
             log.warning("HierView: %s", note)
             semantic, backend_name = {}, "none"
     for inst_id in wanted:
-        out[inst_id] = _select_one(inst_id, stats.table.index_of(inst_id), stats, config, semantic, backend_name, note)
+        k = stats.table.index_of(inst_id)
+        out[inst_id] = _select_one(inst_id, k, stats, config, semantic, backend_name, note, calibrated)
     return out

@@ -42,7 +42,11 @@ Requests = dict[int, NDArray[np.int64]]
 
 
 class SemanticScorer(Protocol):
-    """Scores masked crops against instance categories; ``name`` is recorded in every ViewChoice."""
+    """Scores masked crops against instance categories; ``name`` is recorded in every ViewChoice.
+
+    A scorer may set ``calibrated = False`` when its score ranks one instance's views but is not a class
+    probability (``select`` then keeps the views at or above the instance's median score as well, since
+    ``tau_s`` means nothing to such a score); scorers without the attribute count as calibrated."""
 
     name: str
 
@@ -64,6 +68,9 @@ class AppearanceScorer:
     """Weight-free colour-consistency scorer (see the module docstring)."""
 
     name = "appearance"
+    calibrated = False
+    """Its score is the share of a crop that looks like the instance's other views: it ranks one instance's
+    views, but is no class probability (a large piece of furniture scores 0.05-0.12 in every view)."""
 
     def __init__(self, config: HierViewConfig):
         self.config = config

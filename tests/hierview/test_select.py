@@ -121,6 +121,27 @@ def test_semantic_keeps_top_ranks_and_min_keep(room_capture):
     assert choice.semantic_backend == "low"
 
 
+def test_an_uncalibrated_score_keeps_the_better_half(room_capture):
+    """A score that only ranks an instance's views (the weight-free appearance score of a large piece of
+    furniture: near-ties far below tau_s) keeps every view at or above the instance's median, so the most
+    complete view competes even when it is not among the top three."""
+
+    class Ranking:
+        name = "ranking"
+        calibrated = False
+
+        def score(self, capture, requests):
+            return {i: np.linspace(0.02, 0.01, len(f)) for i, f in requests.items()}
+
+    choice = select_views(room_capture, HierViewConfig(), instance_ids=[TABLE], scorer=Ranking())[TABLE]
+    scored = [r for r in choice.candidates if r["semantic_rank"] is not None]
+    kept = [r for r in scored if r["stage_reached"] in ("semantic", "completeness")]
+    median = np.median([r["semantic"] for r in scored])
+    assert {r["frame"] for r in kept} == {r["frame"] for r in scored if r["semantic"] >= median - 1e-6}
+    assert len(kept) > 3
+    assert "median" in choice.reason
+
+
 def test_none_backend_keeps_everything(room_capture):
     choice = select_views(room_capture, HierViewConfig(semantic_backend="none"), instance_ids=[TABLE])[TABLE]
     assert choice.semantic_backend == "none"
