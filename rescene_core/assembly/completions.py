@@ -16,12 +16,18 @@ capture saw it (``evidence.evidence_refuses``). Instead:
    part when the points show nothing there. It is a ``Completion`` (kind ``base``) in the object's asset
    frame: contact metrics count it and the exporters add it as a collider, so the simulator sees the same
    object the metrics judged.
+
+A base is the generator's missing part, not something the capture saw whole, so it never takes space from a
+neighbour: its outline is cut back (``clear_of_neighbours``) wherever another object (not one it carries or
+rests on) has its mesh or a base below the base's top, a nightstand beside a bed whose points spread under
+its mattress or a chair tucked between a table's legs.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import shapely
+import trimesh
 from numpy.typing import NDArray
 from shapely.geometry import MultiPoint, Polygon
 
@@ -48,6 +54,12 @@ BASE_MIN_POINTS = 12
 """Fewest observed points below the mesh bottom that outline a base by themselves."""
 BASE_MIN_AREA = 0.0016
 """Smallest base outline (m^2, 4 x 4 cm); a smaller one is grown to it."""
+BASE_CLEARANCE = 0.005
+"""Gap (m) a base keeps from a neighbour's mesh or base."""
+NEIGHBOUR_SAMPLES = 2000
+"""Surface samples of a neighbour's mesh (besides its vertices) that say where it stands."""
+CLEAR_DIRECTIONS = 24
+"""Horizontal directions tried (besides the outline's own edge normals) for the cut keeping a base clear."""
 
 
 def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray) -> tuple[NDArray, float]:
@@ -95,6 +107,96 @@ def _outline(state: LayoutState, i: InstanceId, verts: NDArray, bottom: float) -
     return hull if isinstance(hull, Polygon) and not hull.is_empty else None
 
 
+def cut_vertices(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
+    """World vertices [v, 3] of object i's mesh cut as its ``cut`` completions say."""
+    obj = state.objects[i]
+    cuts = [c for c in state.completions.get(i, ()) if c.kind is CompletionKind.CUT]
+    return apply(state.pose(i), cut_mesh(obj.vertices, obj.faces, cuts)[0]) if cuts else state.vertices(i)
+
+
+def _occupied(state: LayoutState, i: InstanceId, outline: Polygon, top: float) -> list[NDArray[np.float64]]:
+    """Per neighbour of object i whose geometry lies within ``outline`` (world xy, grown by BASE_CLEARANCE)
+    below ``top`` (m above the floor): the xy [n, 2] of its mesh's vertices and surface samples and of its
+    bases' points and surface samples there. Objects i carries or rests on are not neighbours."""
+    room = state.room
+    grown = outline.buffer(BASE_CLEARANCE)
+    x0, y0, x1, y1 = grown.bounds
+    out = []
+    for j in sorted(state.objects):
+        if j == i or state.forest.related(i, j):
+            continue
+        obj = state.objects[j]
+        cuts = [c for c in state.completions.get(j, ()) if c.kind is CompletionKind.CUT]
+        verts, faces = cut_mesh(obj.vertices, obj.faces, cuts) if cuts else (obj.vertices, obj.faces)
+        world = apply(state.pose(j), np.asarray(verts, np.float64))
+        lo, hi = world.min(axis=0), world.max(axis=0)
+        solids = (
+            [trimesh.Trimesh(world, faces, process=False)]
+            if lo[0] <= x1 and hi[0] >= x0 and lo[1] <= y1 and hi[1] >= y0
+            else []
+        )
+        for c in state.completions.get(j, ()):
+            if c.kind is CompletionKind.BASE:
+                solids.append(trimesh.convex.convex_hull(apply(state.pose(j), c.points_asset)))
+        parts = [np.zeros((0, 3))]
+        for solid in solids:
+            parts.append(np.asarray(solid.vertices, np.float64))
+            if solid.area > 0:
+                parts.append(np.asarray(solid.sample(NEIGHBOUR_SAMPLES, seed=0), np.float64))
+        pts = np.vstack(parts)
+        pts = pts[room.floor_distance(pts) < top]
+        pts = pts[shapely.contains_xy(grown, pts[:, 0], pts[:, 1])]
+        if len(pts):
+            out.append(pts[:, :2])
+    return out
+
+
+def _half_plane(direction: NDArray, level: float, reach: float) -> Polygon:
+    """The half-plane {x : direction . x <= level} (world xy) as a square of side 2 ``reach`` (m)."""
+    d = np.asarray(direction, np.float64) / float(np.linalg.norm(direction))
+    t = np.array([-d[1], d[0]])
+    c = level * d
+    return Polygon([c + reach * t, c - reach * t, c - reach * t - 2 * reach * d, c + reach * t - 2 * reach * d])
+
+
+def clear_of_neighbours(
+    state: LayoutState, i: InstanceId, outline: Polygon, top: float
+) -> tuple[Polygon | None, list[tuple[NDArray, float]]]:
+    """The base ``outline`` (convex, world xy) of object i reaching ``top`` m above the floor, cut so that it
+    keeps BASE_CLEARANCE from every neighbour's mesh and bases below that height (``_occupied``): per
+    neighbour that reaches into it, the vertical plane at the neighbour's nearest geometry that keeps the
+    largest part of the outline (of the outline's edge normals and CLEAR_DIRECTIONS horizontal directions).
+    Returns the outline (None when less than BASE_MIN_AREA is left) and the cuts made, each (direction [2],
+    level): the base keeps direction . xy <= level."""
+    cuts: list[tuple[NDArray, float]] = []
+    reach = 10.0 + float(np.abs(np.asarray(outline.bounds)).max())
+    for pts in _occupied(state, i, outline, top):
+        inside = pts[shapely.contains_xy(outline.buffer(BASE_CLEARANCE), pts[:, 0], pts[:, 1])]
+        if not len(inside):
+            continue
+        ring = np.asarray(outline.exterior.coords)
+        edges = np.diff(ring, axis=0)
+        normals = np.c_[edges[:, 1], -edges[:, 0]]
+        normals = normals[np.linalg.norm(normals, axis=1) > 1e-9]
+        angles = np.arange(CLEAR_DIRECTIONS) * 2.0 * np.pi / CLEAR_DIRECTIONS
+        directions = np.vstack([normals, -normals, np.c_[np.cos(angles), np.sin(angles)]])
+        directions /= np.linalg.norm(directions, axis=1)[:, None]
+        best: tuple[float, Polygon, NDArray, float] | None = None
+        for d in directions:
+            level = float((inside @ d).min()) - BASE_CLEARANCE
+            kept = outline.intersection(_half_plane(d, level, reach))
+            area = float(kept.area)
+            if best is None or area > best[0]:
+                best = (area, kept, d, level)
+        assert best is not None
+        area, kept, d, level = best
+        if area < BASE_MIN_AREA or not isinstance(kept, Polygon):
+            return None, cuts
+        outline = kept
+        cuts.append((d, level))
+    return outline, cuts
+
+
 def add_bases(state: LayoutState) -> None:
     """Add a base completion to every object in ``state.base_wanted`` that its final pose leaves above the
     floor (module docstring)."""
@@ -102,13 +204,19 @@ def add_bases(state: LayoutState) -> None:
     if abs(room.up[2]) < 1e-9:
         return
     for i, reason in sorted(state.base_wanted.items()):
-        verts = state.vertices(i)
+        verts = cut_vertices(state, i)
         bottom = float(room.floor_distance(verts).min())
         if bottom < BASE_MIN_GAP:
             continue
         outline = _outline(state, i, verts, bottom)
         if outline is None:
             continue
+        outline, cleared = clear_of_neighbours(state, i, outline, bottom + BASE_OVERLAP)
+        if outline is None:
+            state.log(i, "completions", "no base", reason="neighbours fill the space under the object")
+            continue
+        if cleared:
+            state.log(i, "completions", "base clear of neighbours", cuts=len(cleared))
         ring = np.asarray(outline.exterior.coords)[:-1]
         flat = np.c_[ring, np.zeros(len(ring))]
         offset = room.floor_distance(flat)  # height of z = 0 above the floor at each ring point
@@ -144,8 +252,7 @@ def add_tipping_bases(state: LayoutState) -> None:
             continue
         if any(c.kind is CompletionKind.BASE for c in state.completions.get(child, ())):
             continue
-        cuts = [c for c in state.completions.get(child, ()) if c.kind is CompletionKind.CUT]
-        verts = apply(state.pose(child), cut_mesh(obj.vertices, obj.faces, cuts)[0]) if cuts else state.vertices(child)
+        verts = cut_vertices(state, child)
         heights = room.floor_distance(verts)
         if heights.min() > CONTACT_BAND:  # not on the floor at all: not this rule's case
             continue
@@ -157,8 +264,20 @@ def add_tipping_bases(state: LayoutState) -> None:
         low = verts[heights <= heights.min() + UNDERSIDE_BAND * float(np.ptp(heights))]
         dropped = verts - (heights / float(room.up[2]))[:, None] * np.array([0.0, 0.0, 1.0])
         world = np.vstack([low, dropped])
-        if _under_a_neighbour(state, child, footprint(world), float(room.floor_distance(low).max())):
+        top = float(room.floor_distance(low).max())
+        if _under_a_neighbour(state, child, footprint(world), top):
             continue
+        outline, cleared = clear_of_neighbours(state, child, footprint(world), top)
+        if outline is None:
+            state.log(child, "completions", "no base", reason="neighbours fill the space under the object")
+            continue
+        if cleared:
+            hull = trimesh.convex.convex_hull(world)
+            for d, level in cleared:
+                normal = -np.array([d[0], d[1], 0.0])  # the side kept: d . xy <= level
+                hull = hull.slice_plane(np.array([d[0] * level, d[1] * level, 0.0]), normal, cap=True)
+            world = np.asarray(hull.vertices, np.float64)
+            state.log(child, "completions", "base clear of neighbours", cuts=len(cleared))
         state.add_completion(
             Completion(
                 child,

@@ -17,7 +17,8 @@ repair it.
 
 After depenetration (which moves a generated object only as far as its points allow), two completions
 may still fill the same space (a tucked chair and a desk whose completion filled the space between its
-legs): ``cut_overlaps`` cuts the one that was not seen there.
+legs): ``cut_overlaps`` cuts the one that was not seen there, or, when both were seen near it, the one that
+can be cut just clear of the space both meshes fill at the least cost in its points. Neither object moves.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import trimesh
 from numpy.typing import NDArray
 
 from rescene_core.assembly.collision import CollisionWorld
@@ -187,16 +189,26 @@ def trimmed(obj: AssemblyObject, cuts: list[Completion]) -> AssemblyObject:
 OVERLAP_MAX_POINT_SHARE = 0.05
 """The mesh cut out of an overlap may hold at most this share of its object's observed points there (the
 points the cut leaves outside the mesh: segmentation bleed and registration noise, not the object)."""
+REGION_SAMPLES = 20000
+"""Surface samples per mesh (besides its vertices) that outline where two meshes overlap."""
+REGION_CLEARANCE = 0.005
+"""Gap (m) a cut clearing an overlap leaves before the space both meshes fill (a cut through its corner would
+still touch the other mesh)."""
+HORIZONTAL_DIRECTIONS = 24
+"""Horizontal directions tried for a cut clearing an overlap (besides up, down and the footprints' separating
+axis)."""
 
 
 def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
-    """After depenetration: cut the pairs of generated assets that still overlap where one of them was not
-    seen. For a colliding pair the direction n is the separating axis of their footprints (from a into b)
-    and the overlap is the slab between b's mesh start and a's mesh end along n. The object with the smaller
-    share of its observed points in that slab, if at most OVERLAP_MAX_POINT_SHARE, is cut at the slab's far
-    side: its completion filled space the other object was seen in. Exact shapes, pairs where both were seen
-    in the slab, and cuts keeping less than MIN_KEPT_SHARE of a mesh's extent along n are left as they are.
-    Returns the number of pairs cut; each cut is a ``cut`` completion."""
+    """After depenetration: cut the pairs of generated assets that still overlap. For a colliding pair the
+    direction n is the separating axis of their footprints (from a into b) and the overlap is the slab between
+    b's mesh start and a's mesh end along n. The object with the smaller share of its observed points in that
+    slab, if at most OVERLAP_MAX_POINT_SHARE, is cut at the slab's far side: its completion filled space the
+    other object was seen in. Otherwise (both were seen in the slab, or that cut would keep too little) one of
+    them is cut just clear of the space both meshes fill, where it holds few of its points
+    (``_cut_overlap_region``). Exact shapes and cuts keeping less than MIN_KEPT_SHARE of a mesh's extent across
+    the plane are left as they are. Returns the number of pairs cut; each cut is a ``cut``
+    completion."""
     from rescene_core.assembly.depenetrate import separating_vector
 
     cut = 0
@@ -208,23 +220,20 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
         mtv = separating_vector(state.footprint(a), state.footprint(b))
         length = float(np.linalg.norm(mtv))
         if length < 1e-9:
+            cut += _cut_overlap_region(state, a, b, None)
             continue
         n = np.array([-mtv[0] / length, -mtv[1] / length, 0.0])  # from a into b
         va, vb = state.vertices(a) @ n, state.vertices(b) @ n
         lo, hi = float(vb.min()), float(va.max())  # the overlap slab along n
         if hi <= lo:
             continue
-        share = {}
-        for i, obj in ((a, oa), (b, ob)):
-            proj = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64)) @ n
-            share[i] = float(np.mean((proj >= lo) & (proj <= hi)))
+        share = {i: _points_share(state, i, n, lo, hi) for i in (a, b)}
         loser = a if share[a] <= share[b] else b
-        if share[loser] > OVERLAP_MAX_POINT_SHARE:
-            continue
         # a keeps what lies before the slab (normal -n at lo), b what lies after it (normal n at hi)
         level, normal, verts_n = (lo, -n, va) if loser == a else (hi, n, vb)
         kept = level - verts_n.min() if loser == a else verts_n.max() - level
-        if kept < MIN_KEPT_SHARE * np.ptp(verts_n):
+        if share[loser] > OVERLAP_MAX_POINT_SHARE or kept < MIN_KEPT_SHARE * np.ptp(verts_n):
+            cut += _cut_overlap_region(state, a, b, n)
             continue
         verts = state.vertices(loser)
         origin = verts[0] + (level - float(verts[0] @ n)) * n
@@ -244,3 +253,103 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
         )
         cut += 1
     return cut
+
+
+def _world_points(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
+    """Observed points [n, 3] of object i, carried along with its corrections (world)."""
+    obj = state.objects[i]
+    return apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
+
+
+def _points_share(state: LayoutState, i: InstanceId, n: NDArray, lo: float, hi: float) -> float:
+    """Share of object i's observed points between ``lo`` and ``hi`` along ``n``."""
+    proj = _world_points(state, i) @ n
+    return float(np.mean((proj >= lo) & (proj <= hi)))
+
+
+def _directions(n: NDArray | None, up: NDArray) -> list[NDArray[np.float64]]:
+    """Candidate cut normals: the footprints' separating axis ``n`` (or none), up, down and horizontals."""
+    up = np.asarray(up, np.float64)
+    tangent = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    tangent /= np.linalg.norm(tangent)
+    other = np.cross(up, tangent)
+    angles = np.arange(HORIZONTAL_DIRECTIONS) * 2.0 * np.pi / HORIZONTAL_DIRECTIONS
+    out = [] if n is None else [np.asarray(n, np.float64), -np.asarray(n, np.float64)]
+    return out + [up, -up] + [np.cos(t) * tangent + np.sin(t) * other for t in angles]
+
+
+def _inside(mesh: trimesh.Trimesh, points: NDArray) -> NDArray[np.bool_]:
+    """Which of ``points`` [n, 3] lie inside the closed ``mesh`` (Open3D's ray-parity occupancy, C++)."""
+    import open3d as o3d
+
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(
+        o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32))
+    )
+    occupancy = scene.compute_occupancy(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
+    return occupancy > 0.5
+
+
+def overlap_region(
+    state: LayoutState, a: InstanceId, b: InstanceId
+) -> tuple[NDArray[np.float64], dict[InstanceId, NDArray[np.float64]]]:
+    """Points [n, 3] outlining where the closed meshes of a and b overlap (world): each one's vertices and
+    surface samples inside the other (the region's boundary, so its extreme along any direction), empty when
+    they do not overlap or a mesh is not closed; and each mesh's surface samples [REGION_SAMPLES, 3]."""
+    meshes = {i: trimesh.Trimesh(state.vertices(i), state.objects[i].faces, process=True) for i in (a, b)}
+    samples = {i: np.asarray(m.sample(REGION_SAMPLES, seed=0), np.float64) for i, m in meshes.items()}
+    if not all(m.is_watertight for m in meshes.values()):
+        return np.zeros((0, 3)), samples
+    parts = [np.zeros((0, 3))]
+    for i, j in ((a, b), (b, a)):
+        surface = np.vstack([meshes[i].vertices, samples[i]])
+        parts.append(surface[_inside(meshes[j], surface)])
+    return np.vstack(parts), samples
+
+
+def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDArray | None) -> int:
+    """Cut one generated mesh of an overlapping pair just clear of the space both meshes fill
+    (``overlap_region``), when that costs the object few of its own points: for each of the two objects and
+    each direction d (``_directions``), the object keeps what lies REGION_CLEARANCE before the region's nearest
+    extent along d.
+    Of the cuts leaving at most OVERLAP_MAX_POINT_SHARE of the object's observed points outside and keeping at
+    least MIN_KEPT_SHARE of its extent along d, the one removing the least of the mesh's surface wins. The other mesh is not touched and neither
+    object moves. Returns 1 when the pair was cut, 0 when no such cut exists (left, with the reason logged)."""
+    region, surface = overlap_region(state, a, b)
+    if len(region) == 0:
+        return 0
+    best: tuple[float, float, InstanceId, NDArray, float, float] | None = None
+    for loser in (a, b):
+        verts = state.vertices(loser)
+        pts = _world_points(state, loser)
+        for d in _directions(n, state.room.up):
+            level = float((region @ d).min()) - REGION_CLEARANCE
+            proj = verts @ d
+            depth = float(proj.max()) - level
+            if depth <= 0.0 or level - float(proj.min()) < MIN_KEPT_SHARE * float(np.ptp(proj)):
+                continue
+            share = float(np.mean(pts @ d > level))
+            if share > OVERLAP_MAX_POINT_SHARE:
+                continue
+            removed = float(np.mean(surface[loser] @ d > level))
+            if best is None or removed < best[0]:
+                best = (removed, depth, loser, d, level, share)
+    if best is None:
+        state.log(a, "overlap cuts", "overlap left", other=int(b), reason="every cut clearing it loses the points")
+        return 0
+    _, depth, loser, d, level, share = best
+    other = b if loser == a else a
+    verts = state.vertices(loser)
+    origin = verts[0] + (level - float(verts[0] @ d)) * d
+    state.add_completion(
+        cut_plane(
+            loser,
+            state.pose(loser),
+            origin,
+            -d,
+            f"the generated mesh fills space that object {int(other)}'s mesh fills too and holds {share:.0%} of "
+            "its points beyond it: cut there",
+        )
+    )
+    state.log(loser, "overlap cuts", "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share)
+    return 1

@@ -1,0 +1,116 @@
+"""Neighbours that are not related never share space: a base keeps clear of its neighbours, and two generated
+meshes overlapping where both were seen nearby are cut clear of the space both fill."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint, Polygon
+
+from rescene_core.assembly import attach
+from rescene_core.assembly.completions import BASE_CLEARANCE, add_bases
+from rescene_core.assembly.graph import build_forest
+from rescene_core.assembly.objects import footprint
+from rescene_core.assembly.room import room_from_shell
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.assembly.state import LayoutState
+from rescene_core.assembly.trim import OVERLAP_MAX_POINT_SHARE
+from rescene_core.bench.assembly import metric_objects
+from rescene_core.config import AttachmentConfig
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import CompletionKind, Edge, InstanceId, Relation, Root, SceneGraph
+
+BED, STAND = InstanceId(1), InstanceId(2)
+
+
+def _on_floor(*ids: InstanceId) -> SceneGraph:
+    return SceneGraph(tuple(Edge(i, Relation.RESTS_ON, Root.FLOOR, 1.0) for i in ids))
+
+
+def _bed_and_nightstand(stand_x: float) -> LayoutState:
+    """A generated bed 2.0 x 1.6 whose mesh (the mattress, 0.3 to 0.6 m) hangs above the floor, its points
+    spread over its whole footprint down to the floor, and a nightstand 0.25 m tall at ``stand_x`` under the
+    mattress's corner: the meshes do not meet, the space under the mattress is the nightstand's there."""
+    rng = np.random.default_rng(3)
+    bed = box_object(1, "bed", (2.0, 1.6, 0.3), placed(2.0, 2.5, 0.3), exact_shape=False)
+    low = np.c_[rng.uniform(1.0, 3.0, 600), rng.uniform(1.7, 3.3, 600), rng.uniform(0.0, 0.02, 600)]
+    top = np.c_[rng.uniform(1.0, 3.0, 600), rng.uniform(1.7, 3.3, 600), np.full(600, 0.6)]
+    bed = replace(bed, points=np.vstack([low, top]))
+    stand = box_object(2, "nightstand", (0.5, 0.4, 0.25), placed(stand_x, 1.85))
+    objects = {BED: bed, STAND: stand}
+    room = room_from_shell(rect_room())
+    state = LayoutState(objects, build_forest(_on_floor(BED, STAND), set(objects)), room, AttachmentConfig())
+    state.base_wanted[BED] = "the mesh hangs above the floor"
+    return state
+
+
+def _base_outline(state: LayoutState, i: InstanceId) -> Polygon:
+    (base,) = [c for c in state.completions[i] if c.kind is CompletionKind.BASE]
+    return MultiPoint(apply(state.pose(i), base.points_asset)[:, :2]).convex_hull
+
+
+def test_a_base_keeps_clear_of_the_neighbour_under_the_object():
+    state = _bed_and_nightstand(stand_x=3.0)
+    add_bases(state)
+    base = _base_outline(state, BED)
+    stand = footprint(state.vertices(STAND))
+    assert base.intersection(stand).area < 1e-6  # the old base filled the nightstand's corner
+    assert base.distance(stand) >= BASE_CLEARANCE - 1e-6
+    # one cut past the nightstand's corner: the bed keeps more of its 3.2 m^2 than a cut along the
+    # nightstand's side (x <= 2.75 keeps 2.79 m^2)
+    assert base.area >= 2.85
+    assert shapely.contains_xy(base, 2.0, 2.5)  # under the bed's centre
+
+
+def test_a_base_with_no_neighbour_under_it_spans_the_points():
+    state = _bed_and_nightstand(stand_x=3.6)  # beside the bed, not under it
+    add_bases(state)
+    assert _base_outline(state, BED).area >= 0.95 * 3.2
+
+
+def _seen_box(instance: int, label: str, x0: float, x1: float, y0: float, y1: float, height: float, seen: tuple):
+    """A generated box over [x0, x1] x [y0, y1] x [0, height], seen on its top over y in ``seen`` and on its
+    face at y = seen[0] or seen[1] (the one on the box's side of the seen band)."""
+    rng = np.random.default_rng(instance)
+    obj = box_object(instance, label, (x1 - x0, y1 - y0, height), placed(0.5 * (x0 + x1), 0.5 * (y0 + y1)), False)
+    face_y = seen[0] if abs(seen[0] - y0) < abs(seen[1] - y1) else seen[1]
+    top = np.c_[rng.uniform(x0, x1, 800), rng.uniform(seen[0], seen[1], 800), np.full(800, height)]
+    face = np.c_[rng.uniform(x0, x1, 800), np.full(800, face_y), rng.uniform(0.0, height, 800)]
+    return replace(obj, points=np.vstack([top, face]))
+
+
+def test_two_meshes_overlapping_where_neither_was_seen_are_cut_clear_and_not_moved():
+    # a cabinet seen from the front (y = 1.0) to 1.4 m deep and a nightstand seen from the back (y = 1.8) to
+    # 1.6: their completions share the corner x 1.9..2.0, y 1.4..1.6 that nobody saw; both were seen in the
+    # 0.1 m slab along x where their footprints overlap, so no cut at the slab's far side is cheap in points
+    cabinet = _seen_box(1, "cabinet", 1.0, 2.0, 1.0, 1.6, 0.8, (1.0, 1.4))
+    stand = _seen_box(2, "nightstand", 1.9, 2.4, 1.4, 1.8, 0.5, (1.6, 1.8))
+    objects = {InstanceId(1): cabinet, InstanceId(2): stand}
+    graph = _on_floor(InstanceId(1), InstanceId(2))
+    cfg = AttachmentConfig(near_wall_snap=False, depenetration_max_fit_drop=0.0)  # both held where seen
+    layout = attach(objects, graph, rect_room(), cfg)
+    cuts = [op for op in layout.operations if op["rule"] == "cut overlap"]
+    assert len(cuts) == 1
+    assert cuts[0]["points_share"] <= OVERLAP_MAX_POINT_SHARE
+    assert structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())["collision_pairs"] == 0
+    for i in objects:
+        shift = layout.world_from_asset[i][:3, 3] - objects[i].world_from_asset[:3, 3]
+        assert np.linalg.norm(shift) <= 0.031
+    # the cut clears the shared corner (0.1 x 0.2 m), not a whole side of either
+    assert cuts[0]["depth_m"] <= 0.2 + 1e-6
+    cut = [c for c in layout.completions()[cuts[0]["instance"]] if c.kind is CompletionKind.CUT]
+    assert len(cut) == 1
+
+
+def test_an_overlap_where_both_were_seen_is_left_with_its_reason():
+    cabinet = _seen_box(1, "cabinet", 1.0, 2.0, 1.0, 1.6, 0.8, (1.0, 1.6))
+    stand = _seen_box(2, "nightstand", 1.9, 2.4, 1.4, 1.8, 0.5, (1.4, 1.8))
+    objects = {InstanceId(1): cabinet, InstanceId(2): stand}
+    graph = _on_floor(InstanceId(1), InstanceId(2))
+    cfg = AttachmentConfig(near_wall_snap=False, depenetration_max_fit_drop=0.0)
+    layout = attach(objects, graph, rect_room(), cfg)
+    assert not [op for op in layout.operations if op["rule"] == "cut overlap"]
+    assert [op for op in layout.operations if op["rule"] == "overlap left"]
