@@ -311,10 +311,10 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
     """Cut one generated mesh of an overlapping pair just clear of the space both meshes fill
     (``overlap_region``), when that costs the object few of its own points: for each of the two objects and
     each direction d (``_directions``), the object keeps what lies REGION_CLEARANCE before the region's nearest
-    extent along d.
-    Of the cuts leaving at most OVERLAP_MAX_POINT_SHARE of the object's observed points outside and keeping at
-    least MIN_KEPT_SHARE of its extent along d, the one removing the least of the mesh's surface wins. The other mesh is not touched and neither
-    object moves. Returns 1 when the pair was cut, 0 when no such cut exists (left, with the reason logged)."""
+    extent along d. Of the cuts leaving at most OVERLAP_MAX_POINT_SHARE of the object's observed points outside
+    and keeping at least MIN_KEPT_SHARE of its extent along d, the one removing the least of the mesh's surface
+    wins; the other mesh is not touched and neither object moves. Without such a cut, both meshes are cut across
+    the region (``_split_overlap_region``). Returns 1 when the pair was cut, else 0."""
     region, surface = overlap_region(state, a, b)
     if len(region) == 0:
         return 0
@@ -335,8 +335,7 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
             if best is None or removed < best[0]:
                 best = (removed, depth, loser, d, level, share)
     if best is None:
-        state.log(a, "overlap cuts", "overlap left", other=int(b), reason="every cut clearing it loses the points")
-        return 0
+        return _split_overlap_region(state, a, b, n, region)
     _, depth, loser, d, level, share = best
     other = b if loser == a else a
     verts = state.vertices(loser)
@@ -352,4 +351,60 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
         )
     )
     state.log(loser, "overlap cuts", "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share)
+    return 1
+
+
+SPLIT_LEVELS = 21
+"""Planes tried across the space both meshes fill, per direction, when neither mesh can give all of it up."""
+
+
+def _split_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDArray | None, region: NDArray) -> int:
+    """Cut both generated meshes of an overlapping pair at one plane across the space both fill
+    (``overlap_region`` points ``region``), when neither can give up all of it (``_cut_overlap_region``):
+    each keeps its side, REGION_CLEARANCE / 2 back from the plane. Of the directions (``_directions``) and
+    SPLIT_LEVELS planes across the region along each, those leaving at most OVERLAP_MAX_POINT_SHARE of each
+    object's observed points outside its side and keeping at least MIN_KEPT_SHARE of each mesh's extent
+    qualify; the one losing the fewest points (the larger of the two shares) wins. Returns 1 when the pair
+    was cut, 0 when no plane qualifies (the points of the two overlap there: left, with the reason logged)."""
+    pts = {i: _world_points(state, i) for i in (a, b)}
+    verts = {i: state.vertices(i) for i in (a, b)}
+    best: tuple[float, NDArray, float] | None = None
+    for d in _directions(n, state.room.up):
+        along = region @ d
+        va, vb = verts[a] @ d, verts[b] @ d
+        pa, pb = pts[a] @ d, pts[b] @ d
+        for level in np.linspace(float(along.min()), float(along.max()), SPLIT_LEVELS):
+            keep_a, keep_b = level - 0.5 * REGION_CLEARANCE, level + 0.5 * REGION_CLEARANCE
+            if keep_a - va.min() < MIN_KEPT_SHARE * np.ptp(va) or vb.max() - keep_b < MIN_KEPT_SHARE * np.ptp(vb):
+                continue
+            lost = max(float(np.mean(pa > keep_a)), float(np.mean(pb < keep_b)))
+            if lost <= OVERLAP_MAX_POINT_SHARE and (best is None or lost < best[0]):
+                best = (lost, d, float(level))
+    if best is None:
+        state.log(a, "overlap cuts", "overlap left", other=int(b), reason="the two objects' points overlap there")
+        return 0
+    _, d, level = best
+    for i, other, normal, keep in (
+        (a, b, -d, level - 0.5 * REGION_CLEARANCE),
+        (b, a, d, level + 0.5 * REGION_CLEARANCE),
+    ):
+        proj = verts[i] @ d
+        depth = float(proj.max()) - keep if i == a else keep - float(proj.min())
+        if depth <= 0.0:
+            continue
+        share = float(np.mean(pts[i] @ d > keep)) if i == a else float(np.mean(pts[i] @ d < keep))
+        origin = verts[i][0] + (keep - float(verts[i][0] @ d)) * d
+        state.add_completion(
+            cut_plane(
+                i,
+                state.pose(i),
+                origin,
+                normal,
+                f"the generated mesh fills space that object {int(other)}'s mesh fills too, both seen near it: "
+                f"cut across it ({share:.0%} of its points beyond)",
+            )
+        )
+        state.log(
+            i, "overlap cuts", "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share, split=True
+        )
     return 1

@@ -105,12 +105,29 @@ def test_two_meshes_overlapping_where_neither_was_seen_are_cut_clear_and_not_mov
     assert len(cut) == 1
 
 
-def test_an_overlap_where_both_were_seen_is_left_with_its_reason():
-    cabinet = _seen_box(1, "cabinet", 1.0, 2.0, 1.0, 1.6, 0.8, (1.0, 1.6))
-    stand = _seen_box(2, "nightstand", 1.9, 2.4, 1.4, 1.8, 0.5, (1.4, 1.8))
-    objects = {InstanceId(1): cabinet, InstanceId(2): stand}
+def _front_and_side(rng, x0: float, x1: float, side_x: float) -> np.ndarray:
+    """Points on a wardrobe's front (y = 1.7, x0..x1) and on its outer side (x = side_x), 2 m tall."""
+    front = np.c_[rng.uniform(x0, x1, 600), np.full(600, 1.7), rng.uniform(0.0, 2.0, 600)]
+    side = np.c_[np.full(300, side_x), rng.uniform(1.7, 2.3, 300), rng.uniform(0.0, 2.0, 300)]
+    return np.vstack([front, side])
+
+
+def test_two_meshes_each_too_wide_into_the_other_are_both_cut_between_their_points():
+    # two wardrobes side by side, each seen up to x = 2.0 and each completion 0.1 m too wide into the
+    # other: neither can give up the whole overlap (each was seen in half of it), so both are cut at 2.0
+    rng = np.random.default_rng(7)
+    left = box_object(1, "wardrobe", (1.1, 0.6, 2.0), placed(1.55, 2.0), exact_shape=False)
+    right = box_object(2, "wardrobe", (0.9, 0.6, 2.0), placed(2.35, 2.0), exact_shape=False)
+    left = replace(left, points=_front_and_side(rng, 1.0, 2.0, 1.0))
+    right = replace(right, points=_front_and_side(rng, 2.0, 2.8, 2.8))
+    objects = {InstanceId(1): left, InstanceId(2): right}
     graph = _on_floor(InstanceId(1), InstanceId(2))
     cfg = AttachmentConfig(near_wall_snap=False, depenetration_max_fit_drop=0.0)
     layout = attach(objects, graph, rect_room(), cfg)
-    assert not [op for op in layout.operations if op["rule"] == "cut overlap"]
-    assert [op for op in layout.operations if op["rule"] == "overlap left"]
+    cuts = [op for op in layout.operations if op["rule"] == "cut overlap"]
+    assert sorted(op["instance"] for op in cuts) == [1, 2]
+    assert all(op["split"] and op["points_share"] <= OVERLAP_MAX_POINT_SHARE for op in cuts)
+    assert structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())["collision_pairs"] == 0
+    for i in objects:
+        shift = layout.world_from_asset[i][:3, 3] - objects[i].world_from_asset[:3, 3]
+        assert np.linalg.norm(shift) <= 0.031
