@@ -46,7 +46,8 @@ in ``scene/export_report.json`` under the object.
   of the height, up to half of it: a generated lamp's head beside its foot) until the centre is over the
   footing's bottom. When no band holds it, nothing is added and the report says so.
 * **Neighbours** (rescene_core/export/separate.py): pieces of two objects, neither resting on the other,
-  that overlap where neither object's mesh or completions are, are cut apart by a plane between the two.
+  that overlap where neither object's mesh or completions are, are cut apart by a plane between the two,
+  or, when no plane separates them, the piece filling a concavity the other stands in is carved there.
 """
 
 from __future__ import annotations

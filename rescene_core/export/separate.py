@@ -24,7 +24,16 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from rescene_core.export.completions import Piece, Placement, _slice, face_planes, inside_piece
+from rescene_core.export.completions import (
+    CARVE_MARGIN,
+    Piece,
+    Placement,
+    _ring,
+    _slice,
+    carve,
+    face_planes,
+    inside_piece,
+)
 
 MIN_DEPTH = 0.002
 """Pieces overlapping less than this (m) are left as they are (MuJoCo resolves millimetres quietly)."""
@@ -155,6 +164,28 @@ def _depth_in_piece(points: NDArray, piece: Piece) -> float:
     return max(0.0, float((offsets - points @ normals.T).min(axis=1).max()))
 
 
+def carve_where_other_is(piece: Piece, other_inside: NDArray, own: NDArray) -> list[Piece] | None:
+    """The parts of the world ``piece`` left after carving the vertical prism around the neighbour's geometry
+    inside it (``other_inside`` [n, 3]; see the module doc), or None when the prism holds some of the piece's
+    own object's geometry (``own`` [m, 3]) or the carve removes nothing."""
+    import shapely
+    from shapely.geometry import Polygon
+
+    if len(other_inside) < 3:
+        return None
+    ring = _ring(other_inside[:, :2], CARVE_MARGIN)
+    z_lo, z_hi = float(other_inside[:, 2].min()) - CARVE_MARGIN, float(other_inside[:, 2].max()) + CARVE_MARGIN
+    inner = Polygon(ring).buffer(-SEPARATE_TOLERANCE, join_style="mitre")
+    if inner.is_empty:
+        return None
+    z = own[:, 2]
+    near = own[(z > z_lo + SEPARATE_TOLERANCE) & (z < z_hi - SEPARATE_TOLERANCE)]
+    if shapely.contains_xy(inner, near[:, 0], near[:, 1]).any():
+        return None
+    parts, removed = carve([piece], ring, z_lo, z_hi)
+    return parts if removed > 0.0 else None
+
+
 def overlap_depths(
     places: dict[str, Placement],
     evidence: dict[str, tuple[NDArray, NDArray]],
@@ -209,9 +240,21 @@ def separate(
                 entry = entries[node].setdefault(other, {"neighbour": other, "depth_m": 0.0, "pieces_cut": 0})
                 entry["depth_m"] = round(max(entry["depth_m"], o["depth"]), 4)
             if gap < -SEPARATE_TOLERANCE:
-                for node, other in ((a, b), (b, a)):
-                    e = entries[node][other]
-                    e["objects_overlap_m"] = round(max(e.get("objects_overlap_m", 0.0), -gap), 4)
+                carved = False
+                for node, k, piece, other_in in ((a, ka, pa, np.vstack([mb, cb])), (b, kb, pb, np.vstack([ma, ca]))):
+                    parts = carve_where_other_is(piece, other_in, np.vstack(evidence[node]))
+                    if parts is None:
+                        continue
+                    world[node][k] = parts[0] if parts else None
+                    world[node].extend(parts[1:])
+                    entries[node][b if node == a else a]["pieces_carved"] = (
+                        entries[node][b if node == a else a].get("pieces_carved", 0) + 1
+                    )
+                    carved = cut_any = True
+                if not carved:
+                    for node, other in ((a, b), (b, a)):
+                        e = entries[node][other]
+                        e["objects_overlap_m"] = round(max(e.get("objects_overlap_m", 0.0), -gap), 4)
                 continue
             world[a][ka] = _slice(pa, -d, c * d)
             world[b][kb] = _slice(pb, d, c * d)
@@ -228,6 +271,12 @@ def separate(
     for n, by_other in entries.items():
         rows = []
         for other, e in by_other.items():
+            if e.get("objects_overlap_m") is None and e.get("pieces_carved"):
+                e["why"] = (
+                    "a convex piece of one filled a concavity the other stands in: carved where the other's geometry is"
+                )
+                rows.append(e)
+                continue
             if e.get("objects_overlap_m") is not None:
                 key = frozenset((n, other))
                 if key not in depths:

@@ -217,6 +217,30 @@ def test_neighbours_pieces_are_cut_apart_where_neither_object_is():
     assert overlaps({n: ps for n, ps in pieces.items()}) == []
 
 
+def test_a_piece_filling_a_concavity_a_neighbour_stands_in_is_carved_there():
+    # a U-shaped object (two posts on a slab) whose single convex piece fills the notch, and a neighbour in
+    # the notch touching neither post nor slab: no plane separates the two, the notch is carved out of the piece
+    u_mesh = trimesh.util.concatenate(
+        [_box([0, 0, 0], [1, 1, 0.2]), _box([0, 0, 0.2], [0.1, 1, 1]), _box([0.9, 0, 0.2], [1, 1, 1])]
+    )
+    b_mesh = _box([0.3, 0.3, 0.25], [0.7, 0.7, 0.6])
+    places = {"a": _place(u_mesh), "b": _place(b_mesh)}
+    pieces = {"a": [_piece(u_mesh.convex_hull)], "b": [_piece(b_mesh)]}
+    rows = separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, set())
+    assert rows["a"][0]["pieces_carved"] == 1 and "carved" in rows["a"][0]["why"]
+    assert "objects_overlap_m" not in rows["a"][0]
+    assert overlaps(pieces) == []
+    assert all(_is_convex(p) for p in pieces["a"])
+    # the posts and the slab keep their pieces: only the notch's prism is gone (0.404^2 x 0.354 m)
+    assert _volume(pieces["a"]) == pytest.approx(1.0 - 0.404 * 0.404 * 0.354, abs=1e-3)
+    assert pieces["b"][0][0][:, 0].min() == pytest.approx(0.3)  # the neighbour is not touched
+
+
+def _is_convex(piece) -> bool:
+    mesh = trimesh.Trimesh(*piece)
+    return bool(abs(mesh.volume - mesh.convex_hull.volume) < 1e-6)
+
+
 def test_neighbours_that_overlap_themselves_are_left_and_reported():
     a_mesh, b_mesh = _box([0, 0, 0], [1, 1, 1]), _box([0.95, 0, 0], [2, 1, 1])
     places = {"a": _place(a_mesh), "b": _place(b_mesh)}
