@@ -11,8 +11,14 @@ the objects' geometry inside each piece is looked at: its mesh's surface and the
 it (boards, bases), sampled. When a plane separates the two (the contact normal first, else the world's up or
 down or one of 24 horizontal directions), both pieces are cut at that plane, midway between the two objects'
 geometry, each keeping its own side (a convex piece cut by a plane stays convex): only space that neither
-object occupies changes hands. When no plane does, the objects themselves overlap (a layout fault): their
-pieces are left as they are and the report says by how much.
+object occupies changes hands. When no plane does, one piece may fill a concavity the other object stands
+in (a bed's piece spanning the notch beside its headboard where the nightstand's top is): the piece is carved
+(``carve``: split by the sides of a vertical prism, the part inside cut at its bottom and top, all parts
+convex) where the other object's geometry inside it is (the smallest rotated rectangle around it, from its
+lowest to its highest point, grown by ``CARVE_MARGIN``), when none of its own object's mesh lies in that prism
+(moved in by ``SEPARATE_TOLERANCE``): a completion or a piece yields to the other's geometry where its own mesh
+is not. When neither piece can be carved, the objects themselves overlap (a layout fault): their pieces are
+left as they are and the report says by how much.
 """
 
 from __future__ import annotations
@@ -167,7 +173,7 @@ def _depth_in_piece(points: NDArray, piece: Piece) -> float:
 def carve_where_other_is(piece: Piece, other_inside: NDArray, own: NDArray) -> list[Piece] | None:
     """The parts of the world ``piece`` left after carving the vertical prism around the neighbour's geometry
     inside it (``other_inside`` [n, 3]; see the module doc), or None when the prism holds some of the piece's
-    own object's geometry (``own`` [m, 3]) or the carve removes nothing."""
+    own object's mesh (``own`` [m, 3], its surface points) or the carve removes nothing."""
     import shapely
     from shapely.geometry import Polygon
 
@@ -242,7 +248,7 @@ def separate(
             if gap < -SEPARATE_TOLERANCE:
                 carved = False
                 for node, k, piece, other_in in ((a, ka, pa, np.vstack([mb, cb])), (b, kb, pb, np.vstack([ma, ca]))):
-                    parts = carve_where_other_is(piece, other_in, np.vstack(evidence[node]))
+                    parts = carve_where_other_is(piece, other_in, evidence[node][0])
                     if parts is None:
                         continue
                     world[node][k] = parts[0] if parts else None

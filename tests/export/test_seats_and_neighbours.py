@@ -236,6 +236,22 @@ def test_a_piece_filling_a_concavity_a_neighbour_stands_in_is_carved_there():
     assert pieces["b"][0][0][:, 0].min() == pytest.approx(0.3)  # the neighbour is not touched
 
 
+def test_a_board_yields_to_a_neighbours_mesh_where_its_own_mesh_is_not():
+    # a table top with a board the layout added below it (a shelf its mesh lacks), and a neighbour's mesh
+    # passing through the board's corner: the board is carved there, the neighbour keeps its piece
+    top = _box([0, 0, 0.7], [1, 1, 0.75])
+    board = _piece(_box([0, 0, 0.3], [1, 1, 0.32]))
+    b_mesh = _box([0.8, 0.4, 0.0], [1.2, 0.6, 0.6])
+    places = {"a": _place(top), "b": _place(b_mesh)}
+    pieces = {"a": [_piece(top), board], "b": [_piece(b_mesh)]}
+    evidence = {"a": evidence_points(places["a"], [board]), "b": evidence_points(places["b"])}
+    rows = separate(places, pieces, evidence, set(), {"a": [board]})
+    assert rows["a"][0]["pieces_carved"] == 1 and "objects_overlap_m" not in rows["a"][0]
+    assert overlaps(pieces) == []
+    assert _volume(pieces["a"]) == pytest.approx(0.05 + 0.02 - 0.202 * 0.204 * 0.02, abs=1e-6)
+    assert pieces["b"][0][0][:, 0].min() == pytest.approx(0.8)
+
+
 def _is_convex(piece) -> bool:
     mesh = trimesh.Trimesh(*piece)
     return bool(abs(mesh.volume - mesh.convex_hull.volume) < 1e-6)
