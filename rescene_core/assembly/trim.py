@@ -294,16 +294,18 @@ def overlap_region(
     state: LayoutState, a: InstanceId, b: InstanceId
 ) -> tuple[NDArray[np.float64], dict[InstanceId, NDArray[np.float64]]]:
     """Points [n, 3] outlining where the closed meshes of a and b overlap (world): each one's vertices and
-    surface samples inside the other (the region's boundary, so its extreme along any direction), empty when
-    they do not overlap or a mesh is not closed; and each mesh's surface samples [REGION_SAMPLES, 3]."""
+    surface samples inside the other (the region's boundary, so its extreme along any direction; a mesh that
+    is not closed counts as its convex hull: a generated screen's open panel), empty when they do not
+    overlap; and each mesh's surface samples [REGION_SAMPLES, 3]."""
     meshes = {i: trimesh.Trimesh(state.vertices(i), state.objects[i].faces, process=True) for i in (a, b)}
     samples = {i: np.asarray(m.sample(REGION_SAMPLES, seed=0), np.float64) for i, m in meshes.items()}
-    if not all(m.is_watertight for m in meshes.values()):
+    solids = {i: m if m.is_watertight else m.convex_hull for i, m in meshes.items()}
+    if not all(m.is_watertight for m in solids.values()):
         return np.zeros((0, 3)), samples
     parts = [np.zeros((0, 3))]
     for i, j in ((a, b), (b, a)):
         surface = np.vstack([meshes[i].vertices, samples[i]])
-        parts.append(surface[_inside(meshes[j], surface)])
+        parts.append(surface[_inside(solids[j], surface)])
     return np.vstack(parts), samples
 
 

@@ -131,3 +131,19 @@ def test_two_meshes_each_too_wide_into_the_other_are_both_cut_between_their_poin
     for i in objects:
         shift = layout.world_from_asset[i][:3, 3] - objects[i].world_from_asset[:3, 3]
         assert np.linalg.norm(shift) <= 0.031
+
+
+def test_an_open_mesh_counts_as_its_hull_for_the_space_both_fill():
+    # the same corner as above, the nightstand's completion open at its bottom (not a closed mesh)
+    cabinet = _seen_box(1, "cabinet", 1.0, 2.0, 1.0, 1.6, 0.8, (1.0, 1.4))
+    stand = _seen_box(2, "nightstand", 1.9, 2.4, 1.4, 1.8, 0.5, (1.6, 1.8))
+    bottom = np.flatnonzero(np.all(stand.vertices[stand.faces][:, :, 2] < 1e-9, axis=1))
+    stand = replace(stand, faces=np.delete(stand.faces, bottom, axis=0))
+    assert len(bottom) == 2 and not stand.mesh().is_watertight
+    objects = {InstanceId(1): cabinet, InstanceId(2): stand}
+    graph = _on_floor(InstanceId(1), InstanceId(2))
+    cfg = AttachmentConfig(near_wall_snap=False, depenetration_max_fit_drop=0.0)
+    layout = attach(objects, graph, rect_room(), cfg)
+    cuts = [op for op in layout.operations if op["rule"] == "cut overlap"]
+    assert len(cuts) == 1 and cuts[0]["points_share"] <= OVERLAP_MAX_POINT_SHARE
+    assert structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())["collision_pairs"] == 0
