@@ -182,6 +182,9 @@ TOP_TOLERANCE = 0.05
 INNER_MIN_ABOVE_BOTTOM = 0.02
 """A child's registered bottom must lie at least this far (m) above its generated parent's mesh bottom to
 count as standing on an inner shelf (lower, it stands on the parent's floor board or under it)."""
+BOTTOM_BOARD_BELOW = 0.05
+"""A child registered lower, down to this far (m) below its generated parent's mesh bottom, stands on the
+parent's bottom board (books on a bookshelf's lowest shelf, registered a few centimetres low)."""
 INNER_FOOTPRINT_MARGIN = 0.05
 """... and its footprint centre within this distance (m) of the parent's registered footprint."""
 
@@ -192,8 +195,9 @@ def board_at_child(state: LayoutState, parent: InstanceId, child: InstanceId) ->
     child rests on the parent and the child's points say where it stands; inside a solid single-view
     completion the only surface that can carry it is an inner shelf at that height; the same holds on a
     generated top too fragmented to have a face. None when the child is not inside or on the parent (its
-    footprint centre outside the parent's registered footprint, its bottom within INNER_MIN_ABOVE_BOTTOM of
-    the parent's bottom or more than TOP_TOLERANCE above its top)."""
+    footprint centre outside the parent's registered footprint, its bottom more than BOTTOM_BOARD_BELOW below
+    the parent's bottom or more than TOP_TOLERANCE above its top). A bottom within INNER_MIN_ABOVE_BOTTOM
+    of the parent's bottom, or below it, gets the parent's bottom board: a plane at the higher of the two."""
     pobj, cobj, room = state.objects[parent], state.objects[child], state.room
     seen = cobj.world_vertices()
     parent_seen = pobj.world_vertices()
@@ -201,10 +205,13 @@ def board_at_child(state: LayoutState, parent: InstanceId, child: InstanceId) ->
         return None
     bottom = float(room.floor_distance(seen).min())
     parent_heights = room.floor_distance(parent_seen)
-    if bottom < float(parent_heights.min()) + INNER_MIN_ABOVE_BOTTOM:
-        return None
+    low = float(parent_heights.min())
+    if bottom < low - BOTTOM_BOARD_BELOW:
+        return None  # under the parent, not on it
     if bottom > float(parent_heights.max()) + TOP_TOLERANCE:
         return None  # above the parent: no plane in mid-air
+    if bottom < low + INNER_MIN_ABOVE_BOTTOM:
+        return plane_at(state, parent, child, max(bottom, low), "the parent's bottom board under the child")
     return plane_at(
         state, parent, child, bottom, "the child's registered bottom inside its generated parent (an inner shelf)"
     )

@@ -212,3 +212,20 @@ def test_a_child_beyond_a_slab_parent_stands_where_the_parent_top_was_seen():
         metric_objects({A: cabinet, B: lamp}, layout), layout.world_from_asset, graph, rect_room()
     )
     assert int(B) not in metrics["contact_failures"]["support"]
+
+
+def test_books_registered_under_a_bookshelf_bottom_stand_on_its_bottom_board():
+    """A bookshelf generated floating 6 cm above the floor (a base fills the gap) and books registered on its
+    lowest shelf 2 cm below its mesh bottom: they stand on the parent's bottom board."""
+    rng = np.random.default_rng(6)
+    shelf = _seen(box_object(1, "bookshelf", (0.8, 0.35, 1.5), placed(2.0, 0.3, 0.06)), rng)
+    books = _seen(box_object(2, "book stack", (0.3, 0.25, 0.15), placed(2.0, 0.3, 0.04)), rng)
+    graph = SceneGraph((Edge(A, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(B, Relation.RESTS_ON, A, 0.9)))
+    layout = attach({A: shelf, B: books}, graph, rect_room(), AttachmentConfig())
+    metrics = structural_metrics(
+        metric_objects({A: shelf, B: books}, layout), layout.world_from_asset, graph, rect_room()
+    )
+    assert int(B) not in metrics["contact_failures"]["support"]
+    bottom = books.world_vertices(layout.world_from_asset[B])[:, 2].min()
+    shelf_bottom = shelf.world_vertices(layout.world_from_asset[A])[:, 2].min()
+    assert bottom == pytest.approx(shelf_bottom, abs=0.005)
