@@ -278,6 +278,23 @@ def _directions(n: NDArray | None, up: NDArray) -> list[NDArray[np.float64]]:
     return out + [up, -up] + [np.cos(t) * tangent + np.sin(t) * other for t in angles]
 
 
+BOTTOM_BAND = 0.01
+"""Vertices within this height (m) of an object's lowest are its bottom, where it stands."""
+
+
+def _keeps_bottom(state: LayoutState, i: InstanceId, d: NDArray, level: float) -> bool:
+    """Whether a cut of object i keeping the side ``verts @ d <= level`` keeps some of its bottom (always, for
+    an object not resting on anything): an overlap cut must not take away what a resting object stands on
+    (a chair's legs under a table's completion), or it floats."""
+    edge = state.forest.edges.get(i)
+    if edge is None or edge.relation is not Relation.RESTS_ON:
+        return True
+    verts = state.vertices(i)
+    heights = state.room.floor_distance(verts)
+    bottom = verts[heights <= float(heights.min()) + BOTTOM_BAND]
+    return bool((bottom @ np.asarray(d, np.float64) <= level).any())
+
+
 def _inside(mesh: trimesh.Trimesh, points: NDArray) -> NDArray[np.bool_]:
     """Which of ``points`` [n, 3] lie inside the closed ``mesh`` (Open3D's ray-parity occupancy, C++)."""
     import open3d as o3d
@@ -315,7 +332,8 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
     each direction d (``_directions``), the object keeps what lies REGION_CLEARANCE before the region's nearest
     extent along d. Of the cuts leaving at most OVERLAP_MAX_POINT_SHARE of the object's observed points outside
     and keeping at least MIN_KEPT_SHARE of its extent along d, the one removing the least of the mesh's surface
-    wins; the other mesh is not touched and neither object moves. Without such a cut, both meshes are cut across
+    wins; the other mesh is not touched and neither object moves. A cut never takes the whole bottom of an
+    object resting on something (``_keeps_bottom``). Without such a cut, both meshes are cut across
     the region (``_split_overlap_region``). Returns 1 when the pair was cut, else 0."""
     region, surface = overlap_region(state, a, b)
     if len(region) == 0:
@@ -329,6 +347,8 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
             proj = verts @ d
             depth = float(proj.max()) - level
             if depth <= 0.0 or level - float(proj.min()) < MIN_KEPT_SHARE * float(np.ptp(proj)):
+                continue
+            if not _keeps_bottom(state, loser, d, level):
                 continue
             share = float(np.mean(pts @ d > level))
             if share > OVERLAP_MAX_POINT_SHARE:
@@ -378,6 +398,8 @@ def _split_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: N
         for level in np.linspace(float(along.min()), float(along.max()), SPLIT_LEVELS):
             keep_a, keep_b = level - 0.5 * REGION_CLEARANCE, level + 0.5 * REGION_CLEARANCE
             if keep_a - va.min() < MIN_KEPT_SHARE * np.ptp(va) or vb.max() - keep_b < MIN_KEPT_SHARE * np.ptp(vb):
+                continue
+            if not (_keeps_bottom(state, a, d, keep_a) and _keeps_bottom(state, b, -d, -keep_b)):
                 continue
             lost = max(float(np.mean(pa > keep_a)), float(np.mean(pb < keep_b)))
             if lost <= OVERLAP_MAX_POINT_SHARE and (best is None or lost < best[0]):

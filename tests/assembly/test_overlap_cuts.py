@@ -147,3 +147,25 @@ def test_an_open_mesh_counts_as_its_hull_for_the_space_both_fill():
     cuts = [op for op in layout.operations if op["rule"] == "cut overlap"]
     assert len(cuts) == 1 and cuts[0]["points_share"] <= OVERLAP_MAX_POINT_SHARE
     assert structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())["collision_pairs"] == 0
+
+
+def test_an_overlap_cut_never_takes_what_a_resting_object_stands_on():
+    """A generated chair whose lower part reaches 15 cm into a generated table 0.4 m tall seen over its whole box, the
+    chair seen only above the table's top: cutting the chair below the table's top would leave all its points
+    but float it, so that cut is not made."""
+    from rescene_core.assembly.collision import CollisionWorld
+    from rescene_core.assembly.trim import cut_overlaps
+
+    rng = np.random.default_rng(7)
+    table = box_object(1, "table", (1.0, 1.0, 0.4), placed(2.0, 2.0), exact_shape=False)
+    table = replace(table, points=rng.uniform([1.5, 1.5, 0.0], [2.5, 2.5, 0.4], (800, 3)))
+    chair = box_object(2, "chair", (0.5, 0.5, 0.9), placed(2.6, 2.0), exact_shape=False)
+    chair = replace(chair, points=rng.uniform([2.35, 1.75, 0.42], [2.85, 2.25, 0.9], (400, 3)))
+    objects = {BED: table, STAND: chair}
+    state = LayoutState(
+        objects, build_forest(_on_floor(BED, STAND), set(objects)), room_from_shell(rect_room()), AttachmentConfig()
+    )
+    cut_overlaps(state, CollisionWorld(objects))
+    for c in state.completions.get(STAND, []):
+        point, normal = apply(state.pose(STAND), c.points_asset)
+        assert (normal - point)[2] < 0.9  # no horizontal cut keeping only the part above
