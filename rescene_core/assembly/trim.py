@@ -232,7 +232,8 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
         # a keeps what lies before the slab (normal -n at lo), b what lies after it (normal n at hi)
         level, normal, verts_n = (lo, -n, va) if loser == a else (hi, n, vb)
         kept = level - verts_n.min() if loser == a else verts_n.max() - level
-        if share[loser] > OVERLAP_MAX_POINT_SHARE or kept < MIN_KEPT_SHARE * np.ptp(verts_n):
+        keeps_bottom = _keeps_bottom(state, a, n, lo) if loser == a else _keeps_bottom(state, b, -n, -hi)
+        if share[loser] > OVERLAP_MAX_POINT_SHARE or kept < MIN_KEPT_SHARE * np.ptp(verts_n) or not keeps_bottom:
             cut += _cut_overlap_region(state, a, b, n)
             continue
         verts = state.vertices(loser)
