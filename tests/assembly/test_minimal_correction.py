@@ -43,8 +43,8 @@ def test_step_back_stops_where_a_neighbour_begins():
     state, world = _state({A: a, B: b})
     state.move(A, translation([0.6, 0.0, 0.0]), "test", "pushed")
     restore_toward_evidence(state, world)
-    # the whole step (x 1.0) and three quarters of it (1.15) collide with b; half of it (1.3) is free
-    assert state.centre(A)[0] == pytest.approx(1.3, abs=1e-6)
+    # the step back ends where b begins (x 1.25), to within 1/64 of the step (0.6 m)
+    assert 1.25 <= state.centre(A)[0] <= 1.25 + 0.6 / 64
     assert not world.colliding_pairs({i: state.pose(i) for i in state.objects})
     assert state.centre(B)[0] == pytest.approx(0.85)  # an exact shape's registered pose is not evidence
 
@@ -229,3 +229,21 @@ def test_books_registered_under_a_bookshelf_bottom_stand_on_its_bottom_board():
     bottom = books.world_vertices(layout.world_from_asset[B])[:, 2].min()
     shelf_bottom = shelf.world_vertices(layout.world_from_asset[A])[:, 2].min()
     assert bottom == pytest.approx(shelf_bottom, abs=0.005)
+
+
+def test_a_step_back_never_carries_a_child_out_of_the_room():
+    """A table pushed 0.3 m off a wall carries a lamp that its re-seat left at the wall: the table's step
+    back would take the lamp 0.2 m through the wall, so it stops where the lamp still fits."""
+    rng = np.random.default_rng(8)
+    table = _seen(box_object(1, "table", (1.0, 1.0, 0.75), placed(2.0, 0.6)), rng)
+    lamp = _seen(box_object(2, "table lamp", (0.2, 0.2, 0.4), placed(2.0, 0.3, 0.75)), rng)
+    state, world = _state(
+        {A: table, B: lamp},
+        (Edge(A, Relation.RESTS_ON, Root.FLOOR, 1.0), Edge(B, Relation.RESTS_ON, A, 0.9)),
+    )
+    state.move(A, translation([0.0, 0.3, 0.0]), "test", "pushed")  # the lamp goes along, to y 0.6
+    state.move(B, translation([0.0, -0.5, 0.0]), "test", "re-seated")  # against the y = 0 wall
+    restore_toward_evidence(state, world)
+    for i in (A, B):
+        assert state.vertices(i)[:, 1].min() >= -state.config.containment_tolerance - 1e-9
+    assert state.centre(A)[1] < 0.9  # it still stepped back as far as the lamp allows
