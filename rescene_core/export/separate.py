@@ -17,8 +17,14 @@ in (a bed's piece spanning the notch beside its headboard where the nightstand's
 convex) where the other object's geometry inside it is (the smallest rotated rectangle around it, from its
 lowest to its highest point, grown by ``CARVE_MARGIN``), when none of its own object's mesh lies in that prism
 (moved in by ``SEPARATE_TOLERANCE``): a completion or a piece yields to the other's geometry where its own mesh
-is not. When neither piece can be carved, the objects themselves overlap (a layout fault): their pieces are
-left as they are and the report says by how much.
+is not. When neither piece can be carved, one piece gives way to the other (``subtract``): it is split by the
+other piece's face planes and keeps only its convex parts outside it (outside its oriented box when the other
+has more than ``MAX_SUBTRACT_PLANES`` face planes). The piece that gives way is the one whose own object has
+the smaller share of its surface inside the other's piece (a generated table's solid block around a tucked-in
+chair gives way; the chair, mostly inside the block, keeps its pieces). Two colliders that start inside each
+other are thrown apart by the simulator, whatever the cause; the report still says how deep the objects'
+meshes and completions overlap (a layout fault when they do), so the subtraction hides nothing the layout
+got wrong.
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ from numpy.typing import NDArray
 
 from rescene_core.export.completions import (
     CARVE_MARGIN,
+    MIN_PIECE_VOLUME,
     Piece,
     Placement,
     _ring,
@@ -48,11 +55,14 @@ INSIDE_TOLERANCE = 0.005
 SEPARATE_TOLERANCE = 0.005
 """Two objects whose geometry overlaps by at most this much (m) along the cut's normal are still separated
 (the cut runs through the middle of the overlap)."""
-PASSES = 3
-"""Rounds of detection and cutting (a cut piece can still overlap another piece of the neighbour)."""
+PASSES = 6
+"""Rounds of detection and cutting (a cut piece can still overlap another piece of the neighbour; a piece
+that gave way in one round meets its other neighbours' pieces in the next)."""
 SAMPLES = 4000
 """Surface samples per mesh (plus its vertices and face centres)."""
 HORIZONTAL_DIRECTIONS = 24
+MAX_SUBTRACT_PLANES = 12
+"""A piece with more distinct face planes than this is subtracted as its oriented box (at most 6 parts)."""
 
 
 def _directions() -> NDArray[np.float64]:
@@ -192,6 +202,42 @@ def carve_where_other_is(piece: Piece, other_inside: NDArray, own: NDArray) -> l
     return parts if removed > 0.0 else None
 
 
+def _distinct_planes(piece: Piece) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A convex piece's distinct face planes: outward unit normals [k, 3] and offsets [k]."""
+    normals, offsets = face_planes(piece)
+    if len(normals) == 0:
+        return normals, offsets
+    _, first = np.unique(np.round(np.c_[normals, offsets], 4), axis=0, return_index=True)
+    first = np.sort(first)
+    return normals[first], offsets[first]
+
+
+def subtract(piece: Piece, other: Piece) -> list[Piece]:
+    """The convex parts [k <= planes] of the world ``piece`` outside the convex world ``other`` (outside its
+    oriented bounding box when it has more than ``MAX_SUBTRACT_PLANES`` face planes): for each face plane of
+    the other in turn, the part of what is left beyond it is kept and the rest goes on to the next plane."""
+    normals, offsets = _distinct_planes(other)
+    if len(normals) > MAX_SUBTRACT_PLANES:
+        box = trimesh.Trimesh(*other, process=False).bounding_box_oriented
+        normals, offsets = _distinct_planes((np.asarray(box.vertices), np.asarray(box.faces)))
+    parts: list[Piece] = []
+    rest: Piece | None = piece
+    for normal, offset in zip(normals, offsets, strict=True):
+        origin = normal * offset
+        beyond = _slice(rest, normal, origin)  # type: ignore[arg-type]
+        if beyond is not None and abs(float(trimesh.Trimesh(*beyond, process=False).volume)) > MIN_PIECE_VOLUME:
+            parts.append(beyond)
+        rest = _slice(rest, -normal, origin)  # type: ignore[arg-type]
+        if rest is None:
+            break
+    return parts
+
+
+def _share_inside(points: NDArray, piece: Piece) -> float:
+    """The share of an object's surface points [n, 3] inside a convex piece."""
+    return float(_inside(points, piece, INSIDE_TOLERANCE).mean()) if len(points) else 0.0
+
+
 def overlap_depths(
     places: dict[str, Placement],
     evidence: dict[str, tuple[NDArray, NDArray]],
@@ -233,10 +279,11 @@ def separate(
         if not found:
             break
         cut_any = False
+        subtracted: set[tuple[str, int]] = set()  # pieces split this round: their other contacts wait a round
         for o in sorted(found, key=lambda o: -o["depth"]):
             a, b, ka, kb = o["a"], o["b"], o["ka"], o["kb"]
             pa, pb = world[a][ka], world[b][kb]
-            if pa is None or pb is None:
+            if pa is None or pb is None or (a, ka) in subtracted or (b, kb) in subtracted:
                 continue
             (ma, ca), (mb, cb) = evidence[a], evidence[b]
             ma, mb = ma[_inside(ma, pa, INSIDE_TOLERANCE)], mb[_inside(mb, pb, INSIDE_TOLERANCE)]
@@ -261,6 +308,18 @@ def separate(
                     for node, other in ((a, b), (b, a)):
                         e = entries[node][other]
                         e["objects_overlap_m"] = round(max(e.get("objects_overlap_m", 0.0), -gap), 4)
+                    # the piece whose object has less of itself inside the other's piece gives way
+                    share_a, share_b = _share_inside(evidence[a][0], pb), _share_inside(evidence[b][0], pa)
+                    node, k, piece, other_piece, other = (
+                        (a, ka, pa, pb, b) if share_a <= share_b else (b, kb, pb, pa, a)
+                    )
+                    parts = subtract(piece, other_piece)
+                    world[node][k] = parts[0] if parts else None
+                    world[node].extend(parts[1:])
+                    e = entries[node][other]
+                    e["pieces_subtracted"] = e.get("pieces_subtracted", 0) + 1
+                    subtracted.add((node, k))
+                    cut_any = True
                 continue
             world[a][ka] = _slice(pa, -d, c * d)
             world[b][kb] = _slice(pb, d, c * d)
@@ -300,7 +359,12 @@ def separate(
                         "that no plane cuts off"
                     )
                 fault = "a layout fault" if max(meshes_depth, with_completions) > SEPARATE_TOLERANCE else "not cut"
-                e["why"] = f"{what}: no plane separates them ({fault}), left as they are"
+                gave_way = (
+                    "; its piece gave way to the other's (convex subtraction)"
+                    if e.get("pieces_subtracted")
+                    else "; the other's piece gave way to its (convex subtraction)"
+                )
+                e["why"] = f"{what}: no plane separates them ({fault}){gave_way}"
             else:
                 e["why"] = "their convex pieces overlapped where neither object is: cut apart by a plane between them"
             rows.append(e)

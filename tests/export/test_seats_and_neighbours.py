@@ -257,16 +257,43 @@ def _is_convex(piece) -> bool:
     return bool(abs(mesh.volume - mesh.convex_hull.volume) < 1e-6)
 
 
-def test_neighbours_that_overlap_themselves_are_left_and_reported():
+def test_neighbours_that_overlap_themselves_are_reported_and_one_piece_gives_way():
+    # two boxes whose meshes overlap by 5 cm (a layout fault): no plane separates them and neither can be
+    # carved; b has the smaller share of itself inside a's piece (5 of its 105 cm), so b's piece gives way
     a_mesh, b_mesh = _box([0, 0, 0], [1, 1, 1]), _box([0.95, 0, 0], [2, 1, 1])
     places = {"a": _place(a_mesh), "b": _place(b_mesh)}
     pieces = {"a": [_piece(a_mesh)], "b": [_piece(b_mesh)]}
     rows = separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, set())
     assert rows["b"][0]["pieces_cut"] == 0 and rows["b"][0]["meshes_overlap_m"] == pytest.approx(0.05, abs=1e-3)
-    assert "layout fault" in rows["b"][0]["why"]
+    assert "layout fault" in rows["b"][0]["why"] and rows["b"][0]["pieces_subtracted"] == 1
+    assert "pieces_subtracted" not in rows["a"][0] and "layout fault" in rows["a"][0]["why"]
     assert pieces["a"][0][0][:, 0].max() == pytest.approx(1.0)
+    assert len(pieces["b"]) == 1 and pieces["b"][0][0][:, 0].min() == pytest.approx(1.0)
+    assert overlaps(pieces) == []
     # a child and its parent are the seats' business, not this
+    pieces = {"a": [_piece(a_mesh)], "b": [_piece(b_mesh)]}
     assert separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, {frozenset("ab")}) == {}
+
+
+def test_a_solid_block_gives_way_to_a_chair_tucked_into_it():
+    # a generated table completed as a solid block down to the floor, and a chair (seat and back) whose seat
+    # is under the table's top, inside the block: the block's piece gives way around the chair's pieces,
+    # in convex parts; the chair keeps its pieces
+    table = _box([0, 0, 0], [1.2, 0.8, 0.75])
+    seat, back = _box([0.4, 0.45, 0.0], [0.8, 0.8, 0.45]), _box([0.4, 0.75, 0.45], [0.8, 0.8, 0.9])
+    chair = trimesh.util.concatenate([seat, back])
+    places = {"table": _place(table), "chair": _place(chair)}
+    pieces = {"table": [_piece(table)], "chair": [_piece(seat), _piece(back)]}
+    rows = separate(places, pieces, {n: evidence_points(p) for n, p in places.items()}, set())
+    assert rows["table"][0]["pieces_subtracted"] >= 1 and "layout fault" in rows["table"][0]["why"]
+    assert "pieces_subtracted" not in rows["chair"][0]
+    assert overlaps(pieces) == []
+    assert all(_is_convex(p) for p in pieces["table"])
+    assert _volume(pieces["chair"]) == pytest.approx(0.4 * 0.35 * 0.45 + 0.4 * 0.05 * 0.45, abs=1e-6)
+    # the block loses what the seat and the back (up to the block's top) fill of it, and at most the few
+    # millimetres of the plane cuts and carves that came first (the back's top edge, cut midway)
+    kept = 1.2 * 0.8 * 0.75 - 0.4 * 0.35 * 0.45 - 0.4 * 0.05 * 0.3
+    assert kept - 0.003 < _volume(pieces["table"]) <= kept + 1e-6
 
 
 def test_footing_bands_reach_half_the_height_and_no_further():
