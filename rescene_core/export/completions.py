@@ -44,7 +44,10 @@ in ``scene/export_report.json`` under the object.
   carries the monitor at its corner). It then gets a footing: the hull of its vertices in the lowest band of its
   height and of the same vertices on the level of its lowest point, with the band grown (``FOOTING_BANDS``
   of the height, up to half of it: a generated lamp's head beside its foot) until the centre is over the
-  footing's bottom. When no band holds it, nothing is added and the report says so.
+  footing's bottom far enough to resist a tilt of ``FOOTING_TILT_DEG`` (the rotation the physics check
+  still calls stable: a centre 14 cm up and 1 cm inside tips at 4 deg), else, when no band does, the first
+  band that holds it ``FOOTING_MARGIN`` inside. When no band holds it, nothing is added and the report
+  says so.
 * **Neighbours** (rescene_core/export/separate.py): pieces of two objects, neither resting on the other,
   that overlap where neither object's mesh or completions are, are cut apart by a plane between the two,
   or, when no plane separates them, the piece filling a concavity the other stands in is carved there.
@@ -98,6 +101,9 @@ CONTACT_BAND = 0.001
 """Collider points within this height (m) of the lowest one are the points an object stands on."""
 FOOTING_MARGIN = 0.01
 """The centre of mass must be this far (m) inside the polygon an object stands on."""
+FOOTING_TILT_DEG = 5.0
+"""A footing holds the centre of mass at least (its height above the footing) x tan(this) inside, when a band
+can (deg): the rotation the physics check still counts as stable."""
 FOOTING_BANDS = (0.02, 0.05, 0.10, 0.15, 0.25, 0.35, 0.5)
 """Heights of the footing's band, as fractions of the object's height (the first that holds is used)."""
 CLIP_DIRECTIONS = 24
@@ -636,7 +642,9 @@ def footing(
         return None, None
     mesh_w = place.world(place.vertices)
     height = float(mesh_w[:, 2].max() - zmin)
+    tilt_margin = max(FOOTING_MARGIN, float(com_w[2] - zmin) * np.tan(np.radians(FOOTING_TILT_DEG)))
     blocked = False
+    holding: list[tuple[Piece, dict[str, Any]]] = []  # bands holding the centre FOOTING_MARGIN inside
     for frac in FOOTING_BANDS:
         band = max(FOOTING_MIN_BAND, frac * height)
         low = mesh_w[mesh_w[:, 2] <= zmin + band]
@@ -658,10 +666,15 @@ def footing(
             "band_fraction_of_height": frac,
             "support_margin_before_m": round(margin, 4),
             "support_margin_after_m": round(held, 4),
+            "tilt_margin_m": round(float(tilt_margin), 4),
             "why": "its centre of mass (with what rests on it) is not over the points it stands on (an uneven "
             "generated bottom): the hull of its lowest band, down to its lowest point, is added",
         }
-        return piece, entry
+        if held >= tilt_margin:
+            return piece, entry
+        holding.append((piece, entry))
+    if holding:  # none resists the tilt: the first that holds the centre at all
+        return holding[0]
     return None, {
         "band_m": None,
         "support_margin_before_m": round(margin, 4),

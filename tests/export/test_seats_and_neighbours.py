@@ -12,6 +12,7 @@ import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.completions import (
+    FOOTING_MARGIN,
     Placement,
     Seated,
     carve,
@@ -308,6 +309,21 @@ def test_footing_bands_reach_half_the_height_and_no_further():
     lamp = trimesh.util.concatenate([_box([0, 0, 0], [0.05, 0.05, 0.35]), head])
     piece, entry = footing(_place(lamp), [_piece(_box([0, 0, 0], [0.05, 0.05, 0.35])), _piece(head)])
     assert piece is None and entry["band_m"] is None
+
+
+def test_a_footing_resists_the_tilt_the_check_calls_stable():
+    # a pot on a narrow foot: the foot's own band holds the centre 13 mm inside, but the centre is 16 cm up,
+    # where a 5 deg tilt moves it 14 mm: the band grows to the body's bottom (15 %), which holds it
+    body, stem = _box([0.0, 0.0, 0.04], [0.2, 0.1, 0.3]), _box([0.06, 0.0, 0.008], [0.1, 0.1, 0.04])
+    plant = trimesh.util.concatenate([_box([0.05, 0.0, 0.0], [0.112, 0.1, 0.008]), stem, body])
+    pieces = [_piece(_box([0.05, 0.0, 0.0], [0.105, 0.1, 0.008])), _piece(stem), _piece(body)]  # a short piece
+    piece, entry = footing(_place(plant), pieces)
+    assert piece is not None and entry["band_fraction_of_height"] == 0.15
+    assert entry["support_margin_after_m"] >= entry["tilt_margin_m"] == pytest.approx(0.0143, abs=2e-4)
+    # a neighbour under the body's far end: no band resisting the tilt fits, the first band holding it does
+    piece, entry = footing(_place(plant), pieces, others=np.array([[0.18, 0.05, 0.02]]))
+    assert piece is not None and entry["band_fraction_of_height"] == 0.02
+    assert FOOTING_MARGIN <= entry["support_margin_after_m"] < entry["tilt_margin_m"]
 
 
 def test_a_footing_does_not_reach_into_a_neighbour():
