@@ -593,8 +593,8 @@ class AttachmentConfig(_Section):
     for a generator whose completions are much deeper than its objects. Default: the project's choice."""
     contact_closure_min_confidence: float = 0.60
     """Edges at least this confident get their contact (floor, support face, wall plane) closed in full
-    after the confidence-scaled update; below it the contact is scaled by omega like the rest (the paper's
-    low-confidence threshold).
+    after the confidence-scaled update, and a wall edge its rotation onto the wall too; below it the contact
+    is scaled by omega like the rest (the paper's low-confidence threshold).
     Default: the paper's low-confidence threshold (Appendix 'Multi-Frame Fusion Details'), applied here by the project."""
     trim_completions: bool = True
     """Cut a generated asset's mesh where it reaches through the floor or a wall beyond its observed points

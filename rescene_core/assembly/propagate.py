@@ -14,7 +14,9 @@ contact along the contact normal (floor: the lowest point onto the floor; object
 onto the chosen support level; wall: the back surface onto the wall plane, read as in
 ``rescene_core.assembly.evidence.wall_gap``) as a pure translation, composed into the same update. A
 confident relation is either a contact or not: omega < 1 alone would leave an object (1 - omega) of its
-snap above the floor. Tilt, yaw and lateral moves stay scaled by omega.
+snap above the floor. For the same reason such a wall edge also takes its rotation onto the wall in full
+(``turn_in_full``): a back left (1 - omega) of its yaw off the wall touches it along one edge only. Lateral
+moves, and the tilt and yaw of floor and support edges, stay scaled by omega.
 """
 
 from __future__ import annotations
@@ -57,6 +59,17 @@ def contact_closure(state: LayoutState, child: InstanceId, info: dict) -> tuple[
     return np.eye(4), 0.0
 
 
+def turn_in_full(correction: NDArray, weight: float, centre: NDArray) -> NDArray[np.float64]:
+    """``correction`` [4, 4] (world frame) with its rotation taken in full about ``centre`` [3] (m) and the
+    move of that centre scaled by ``weight``."""
+    linear = np.asarray(correction, np.float64)[:3, :3]
+    moved = linear @ centre + correction[:3, 3]
+    out = np.eye(4)
+    out[:3, :3] = linear
+    out[:3, 3] = centre + weight * (moved - centre) - linear @ centre
+    return out
+
+
 def keep_registered(state: LayoutState, child: InstanceId) -> None:
     """A child whose relation cannot be satisfied stays where it was registered, not where its parent's
     correction carried it (a book stack on a desk the floor snap lowered by 0.19 m would otherwise sink
@@ -82,10 +95,14 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             keep_registered(state, child)
             state.skip(child, stage, info.get("reason", "rule did not apply"))
             continue
-        weighted = scale_by_confidence(correction, edge.confidence)
+        closing = 1.0 > edge.confidence >= state.config.contact_closure_min_confidence
+        if closing and "wall_id" in info:
+            weighted = turn_in_full(correction, edge.confidence, state.centre(child))
+        else:
+            weighted = scale_by_confidence(correction, edge.confidence)
         update = inverse(parent_delta) @ weighted @ parent_delta
         closed = 0.0
-        if edge.confidence < 1.0 and edge.confidence >= state.config.contact_closure_min_confidence:
+        if closing:
             state.delta[child] = parent_delta @ update
             state._version[child] += 1
             closure, closed = contact_closure(state, child, info)

@@ -66,6 +66,23 @@ def test_floating_generated_panel_goes_flat_on_the_wall_without_turning():
     assert moved < before_gap + 0.05  # it moved by about its gap, not across the room
 
 
+@pytest.mark.parametrize(("confidence", "yaw_left_deg"), [(0.7, 0.0), (0.5, 2.0)])
+def test_a_confident_wall_edge_turns_its_back_flat_on_the_wall(confidence, yaw_left_deg):
+    # an edge at or above the contact-closure threshold takes its 4 deg turn onto the wall in full (a back
+    # left 1.2 deg off the wall touches it along one edge); below it the turn stays scaled by omega (with
+    # dual attachment such an edge's group keeps its floor-only result: it is left out of that here)
+    obj, _, shell = panel_on_wall(gap=0.1, yaw_error_deg=4.0)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, confidence),))
+    config = AttachmentConfig(stop_after="relations", dual_attachment=False)
+    layout = attach({obj.instance: obj}, graph, shell, config)
+    pose = layout.world_from_asset[obj.instance]
+    n = pose[:3, :3] @ lifted_panel()[2]
+    left = np.degrees(np.arccos(min(1.0, abs(n[1]) / np.linalg.norm(n))))
+    assert left == pytest.approx(yaw_left_deg, abs=0.05)
+    op = next(o for o in layout.operations if o["stage"] == "wall attachment")
+    assert op["yaw_deg"] == pytest.approx(-4.0, abs=0.05) and op["omega"] == confidence
+
+
 def test_generated_panel_whose_completion_crosses_the_wall_stays_where_it_was_seen():
     # the seen panel is 2 cm in front of the wall; the completed prism reaches ~0.25 m into the wall
     # (a generator with over-deep completions, for which completion_min_excess is set)
