@@ -50,7 +50,8 @@ in ``scene/export_report.json`` under the object.
   says so.
 * **Neighbours** (rescene_core/export/separate.py): pieces of two objects, neither resting on the other,
   that overlap where neither object's mesh or completions are, are cut apart by a plane between the two,
-  or, when no plane separates them, the piece filling a concavity the other stands in is carved there.
+  or, when no plane separates them, the piece filling a concavity the other stands in is carved there;
+  when neither works, one piece gives way to the other (convex subtraction).
 """
 
 from __future__ import annotations
