@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 from rescene_core.export.collision import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
-from rescene_core.export.shell import floor_height
+from rescene_core.export.shell import floor_height, wall_extent
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
 from rescene_core.records import Relation, RoomShell, SceneGraph
@@ -154,10 +154,11 @@ def build_spec(
         )
         height = shell.ceiling_height if shell.ceiling_height else wall_height
         for wall in shell.walls:
-            (x0, y0), (x1, y1) = wall.segment
-            length = float(np.hypot(x1 - x0, y1 - y0))
-            if length <= 0:
+            extent = wall_extent(shell, wall)
+            if extent is None:
                 continue
+            (x0, y0), (x1, y1) = extent
+            length = float(np.hypot(x1 - x0, y1 - y0))
             normal = np.asarray(wall.plane.normal, np.float64)
             centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * wall_thickness / 2
             yaw = float(np.arctan2(y1 - y0, x1 - x0))
