@@ -302,3 +302,47 @@ def _under_a_neighbour(state: LayoutState, i: InstanceId, outline: Polygon, top:
         if outline.intersection(footprint(verts)).area > 0.01 * outline.area:
             return True
     return False
+
+
+def planes_within_room(state: LayoutState) -> None:
+    """Clip every support plane to the floor polygon at its object's final pose (in place, logged).
+
+    A plane grown under a child reaches where the child was registered; a child registered through a wall
+    (with its parent, 0.8 m deep) would leave the board outside the room after its parent was brought in.
+    Nothing stands there, so the part beyond the floor polygon is dropped, and a plane wholly outside goes."""
+    room = state.room
+    if room.polygon is None or abs(room.up[2]) < 1e-9:
+        return
+    grown = room.polygon.buffer(state.config.containment_tolerance)
+    for i, completions in sorted(state.completions.items()):
+        pose = state.pose(i)
+        kept: list[Completion] = []
+        for c in completions:
+            if c.kind is not CompletionKind.SUPPORT_PLANE or len(c.points_asset) < 3:
+                kept.append(c)
+                continue
+            world = apply(pose, c.points_asset)
+            plane = MultiPoint(world[:, :2]).convex_hull
+            if not isinstance(plane, Polygon) or plane.within(grown):
+                kept.append(c)
+                continue
+            inside = plane.intersection(room.polygon)
+            if not isinstance(inside, Polygon) and not inside.is_empty:
+                inside = max(getattr(inside, "geoms", []), key=lambda g: g.area, default=inside)
+            hull = inside.convex_hull if not inside.is_empty else inside
+            if not isinstance(hull, Polygon) or hull.is_empty or hull.area <= 0:
+                state.log(i, "completions", "support plane outside the room", source=c.source)
+                continue
+            height = float(room.floor_distance(world).mean())
+            ring = np.asarray(hull.exterior.coords)[:-1]
+            base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
+            clipped = np.c_[ring, (height - base) / float(room.up[2])]
+            kept.append(Completion(c.instance, c.kind, apply(inverse(pose), clipped), c.source))
+            state.log(
+                i,
+                "completions",
+                "support plane clipped to the room",
+                source=c.source,
+                area_removed_m2=float(plane.area - hull.area),
+            )
+        state.completions[i] = kept

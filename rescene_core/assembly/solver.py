@@ -26,7 +26,7 @@ from collections import defaultdict
 import numpy as np
 
 from rescene_core.assembly.collision import CollisionWorld
-from rescene_core.assembly.completions import add_bases, add_tipping_bases
+from rescene_core.assembly.completions import add_bases, add_tipping_bases, planes_within_room
 from rescene_core.assembly.depenetrate import depenetrate
 from rescene_core.assembly.graph import build_forest
 from rescene_core.assembly.objects import AssemblyObject, check_object
@@ -231,6 +231,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         cut_overlaps(final, world)
     add_bases(final)
     add_tipping_bases(final)
+    planes_within_room(final)
     record_completions(final)
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},

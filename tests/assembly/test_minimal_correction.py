@@ -247,3 +247,28 @@ def test_a_step_back_never_carries_a_child_out_of_the_room():
     for i in (A, B):
         assert state.vertices(i)[:, 1].min() >= -state.config.containment_tolerance - 1e-9
     assert state.centre(A)[1] < 0.9  # it still stepped back as far as the lamp allows
+
+
+def test_a_support_plane_reaching_out_of_the_room_is_clipped_to_it():
+    # a desk against the wall y = 0 carrying a plane grown under a child registered 0.3 m through that wall:
+    # the part beyond the floor polygon goes, the part in the room stays at its height; a plane wholly
+    # outside goes
+    from rescene_core.assembly.completions import planes_within_room
+    from rescene_core.geometry.sim3 import apply
+    from rescene_core.records import Completion
+
+    desk = box_object(1, "desk", (1.0, 0.6, 0.75), placed(2.0, 0.3))
+    state, _ = _state({A: desk})
+    pose = state.pose(A)
+    grown = np.array([[1.5, -0.3, 0.75], [2.5, -0.3, 0.75], [2.5, 0.6, 0.75], [1.5, 0.6, 0.75]])
+    outside = np.array([[1.5, -0.5, 0.75], [2.5, -0.5, 0.75], [2.5, -0.2, 0.75], [1.5, -0.2, 0.75]])
+    for ring in (grown, outside):
+        inverse_pose = np.linalg.inv(pose)
+        state.add_completion(Completion(A, CompletionKind.SUPPORT_PLANE, apply(inverse_pose, ring), "test"))
+    planes_within_room(state)
+    (kept,) = state.completions[A]
+    world = apply(pose, kept.points_asset)
+    assert world[:, 1].min() == pytest.approx(0.0, abs=1e-9) and world[:, 1].max() == pytest.approx(0.6)
+    assert world[:, 2] == pytest.approx(0.75)
+    rules = [op.rule for op in state.operations]
+    assert rules == ["support plane clipped to the room", "support plane outside the room"]
