@@ -205,6 +205,26 @@ def completion_pieces(obj: ExportObject, place: Placement) -> tuple[list[Piece],
     return pieces, entries
 
 
+def within_pulled_sides(extra: list[Piece], shell: list[Piece], sides: dict[str, float]) -> list[Piece]:
+    """Completion pieces (body frame) of a hollow parent cut at the sides of its shell that were pulled out
+    of a wall (``sides``: "+x", "-y", ... as in the report): a base or board must not keep reaching into the
+    wall its shell was pulled from. A piece the cut would empty is kept as it was (one piece per entry)."""
+    if not shell:
+        return extra
+    allv = np.vstack([v for v, _ in shell])
+    lo, hi = allv.min(axis=0), allv.max(axis=0)
+    out = []
+    for piece in extra:
+        cut: Piece | None = piece
+        for side in sides:
+            a = "xyz".index(side[1])
+            normal, origin = np.zeros(3), np.zeros(3)
+            normal[a], origin[a] = (-1.0, hi[a]) if side[0] == "+" else (1.0, lo[a])
+            cut = _slice(cut, normal, origin) if cut is not None else None
+        out.append(cut if _solid(cut) else piece)  # type: ignore[arg-type]
+    return out
+
+
 def _children(instance: int, graph: SceneGraph | None) -> list[int]:
     if graph is None:
         return []
@@ -273,8 +293,16 @@ def hollow_shell(
         e[a] = s
         return place.rotation @ e
 
+    def face_corners(a: int, s: int) -> NDArray[np.float64]:
+        b, c = (x for x in range(3) if x != a)
+        corners = np.array([[lo[b], lo[c]], [lo[b], hi[c]], [hi[b], lo[c]], [hi[b], hi[c]]])
+        out = np.empty((4, 3))
+        out[:, a], out[:, b], out[:, c] = (hi[a] if s > 0 else lo[a]), corners[:, 0], corners[:, 1]
+        return place.world(out)
+
     open_side, reason = None, ""
     backing: set[tuple[int, int]] = set()
+    behind: dict[tuple[int, int], float] = {}  # backing side -> how far (m, along its axis) it is behind a wall
     if shell is not None and shell.walls:
         best = None
         for a, s in sides:
@@ -292,6 +320,10 @@ def hollow_shell(
                 on_segment = -BACK_WALL_MAX <= at <= length + BACK_WALL_MAX
                 if on_segment and -BACK_WALL_MAX < gap < BACK_WALL_MAX:
                     backing.add((a, s))
+                    deepest = -float((face_corners(a, s) @ wn + wall.plane.offset).min())
+                    if deepest > 0.0:
+                        depth = deepest / max(float(n @ -wn), 1e-6)
+                        behind[(a, s)] = max(behind.get((a, s), 0.0), depth)
                     if best is None or abs(gap) < abs(best[0]):
                         best = (gap, (a, -s), wall.id)
         if best is not None and len(backing) == 1:
@@ -311,6 +343,16 @@ def hollow_shell(
         kids = np.mean(inside, axis=0) - centre_b
         open_side = max(free_sides, key=lambda side: side[1] * kids[side[0]] / max(hi[side[0]] - lo[side[0]], 1e-9))
         reason = "the side nearest the children's centre: no room to face"
+    # a side behind the wall it backs onto is pulled back onto the wall's plane (at most a quarter of the
+    # box): a panel starting inside a wall is thrown off it at t = 0, with everything standing on the shelf
+    pulled = {}
+    for (a, side), depth in behind.items():
+        cut = min(depth, 0.25 * float(hi[a] - lo[a]))
+        if side > 0:
+            hi[a] -= cut
+        else:
+            lo[a] += cut
+        pulled[f"{'+' if side > 0 else '-'}{'xyz'[a]}"] = round(cut, 4)
     pieces: list[Piece] = []
     t = np.minimum(PANEL_THICKNESS, 0.25 * (hi - lo))
     for a in range(3):
@@ -334,6 +376,7 @@ def hollow_shell(
         "inner_support_planes_m": [round(h, 4) for h in inner],
         "children_inside": len(inside),
         "clipped_to_extent_m": round(reach, 4),
+        "pulled_out_of_walls_m": pulled,
         "why": "a support plane inside the generated mesh with children standing in it: solid pieces would push "
         "them out",
     }
@@ -713,6 +756,8 @@ def edit_colliders(
         if reach > 1e-4:
             edits[name].clipped_m = round(reach, 4)
         extra, entries = completion_pieces(obj, places[name])
+        if name in hollow and hollow[name][1].get("pulled_out_of_walls_m"):
+            extra = within_pulled_sides(extra, pieces[name], hollow[name][1]["pulled_out_of_walls_m"])
         added[name] = extra
         pieces[name] = list(pieces[name]) + extra
         edits[name].completions = entries

@@ -4,6 +4,7 @@ checked in MJCF and USD, in the export report and with the real physics check.""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -249,3 +250,38 @@ def test_footing_counts_the_load_resting_on_the_object():
     piece, entry = footing(place, pieces, 20.0, [(10.0, np.array([0.95, 0.95, 0.8]))])
     assert piece is not None and entry["support_margin_after_m"] > 0.01
     assert piece[0][:, :2].min() == pytest.approx(0.0) and piece[0][:, :2].max() == pytest.approx(1.0)
+
+
+def test_a_hollow_shelf_registered_into_its_wall_is_pulled_out_of_it_with_its_base(tmp_path):
+    # the shelf's back 12 mm inside wall 0 (y = -2), with a base over its whole footprint: the back panel and
+    # the base are cut back to the wall's plane, so nothing starts inside the wall and the shelf stands
+    import mujoco
+
+    (shelf, book), graph = shelf_scene(with_boards=True)
+    into_wall = SHELF_CENTRE + np.array([0.0, -0.013, 0.0])
+    x, y = SHELF_EXTENTS[0] / 2, SHELF_EXTENTS[1] / 2
+    base = np.array([[sx * x, sy * y, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-0.8, -0.75)])
+    shelf = replace(
+        shelf,
+        world_from_asset=sim3.sim3_from_parts(1.0, YAW_180, into_wall),
+        completions=(*shelf.completions, Completion(InstanceId(1), CompletionKind.BASE, base, "test base")),
+    )
+    book = replace(book, world_from_asset=book.world_from_asset @ sim3.sim3_from_parts(1.0, np.eye(3), [0, -0.013, 0]))
+    run = _export(tmp_path, [shelf, book], graph)
+    report = json.loads((run / "scene" / "export_report.json").read_text())
+    edits = next(o for o in report["objects"] if o["node"] == "obj_1_bookshelf")["colliders_from_layout"]
+    assert edits["hollow_shell"]["pulled_out_of_walls_m"] == {"+y": pytest.approx(0.012, abs=1e-4)}
+    model = mujoco.MjModel.from_xml_path(str(run / "scene" / "mjcf" / "scene.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    body = model.body("obj_1_bookshelf").id
+    lowest_y = np.inf
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] == body and model.geom_contype[g] and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            m = model.geom_dataid[g]
+            v = model.mesh_vert[model.mesh_vertadr[m] : model.mesh_vertadr[m] + model.mesh_vertnum[m]]
+            lowest_y = min(lowest_y, float((v @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])[:, 1].min()))
+    assert lowest_y >= -2.0 - 1e-6  # the back panel and the base both stop at the wall's plane
+    result = simcheck_run(run, SimcheckConfig())
+    assert result.summary["stable"] == result.summary["free"] == 2
+    assert result.summary["penetration_t0_max"] < 0.002
