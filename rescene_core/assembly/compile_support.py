@@ -166,8 +166,7 @@ def plane_at(
     if not isinstance(shrunk, Polygon) or shrunk.is_empty:
         return None
     ring = np.asarray(shrunk.exterior.coords)[:-1]
-    base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
-    world = np.c_[ring, (now_height - base) / float(room.up[2])]
+    world = room.at_height(ring, now_height)
     board = apply(inverse(now_pose), world)
     state.add_completion(Completion(parent, CompletionKind.SUPPORT_PLANE, board, source))
     now = apply(state.pose(parent), board)
@@ -301,8 +300,7 @@ def extend_under_child(
     if not isinstance(grown, Polygon) or grown.is_empty:
         return None
     ring = np.asarray(grown.exterior.coords)[:-1]
-    base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
-    world = np.c_[ring, (level.height - base) / float(room.up[2])]
+    world = room.at_height(ring, level.height)
     source = f"the parent's top grown under child {int(child)}, where the capture saw both"
     # one extension per child: a later re-seat replaces the one an earlier stage made
     state.completions[parent] = [c for c in state.completions.get(parent, []) if c.source != source]

@@ -334,9 +334,7 @@ def planes_within_room(state: LayoutState) -> None:
                 state.log(i, "completions", "support plane outside the room", source=c.source)
                 continue
             height = float(room.floor_distance(world).mean())
-            ring = np.asarray(hull.exterior.coords)[:-1]
-            base = room.floor_distance(np.c_[ring, np.zeros(len(ring))])
-            clipped = np.c_[ring, (height - base) / float(room.up[2])]
+            clipped = room.at_height(np.asarray(hull.exterior.coords)[:-1], height)
             kept.append(Completion(c.instance, c.kind, apply(inverse(pose), clipped), c.source))
             state.log(
                 i,

@@ -56,6 +56,12 @@ class Room:
         """Signed distance (m) of world points [n, 3] above the floor plane."""
         return np.asarray(points) @ self.up + self.floor_offset
 
+    def at_height(self, xy: NDArray, height: float) -> NDArray[np.float64]:
+        """World points [k, 3] at ``height`` (m) above the floor plane over the (x, y) points ``xy`` [k, 2]."""
+        xy = np.asarray(xy, np.float64)
+        base = self.floor_distance(np.c_[xy, np.zeros(len(xy))])
+        return np.c_[xy, (height - base) / float(self.up[2])]
+
     def wall(self, wall_id: int) -> Wall | None:
         return next((w for w in self.walls if w.id == wall_id), None)
 

@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 from rescene_core.export.collision import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
-from rescene_core.export.shell import floor_height, wall_extent
+from rescene_core.export.shell import floor_height, wall_boxes
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
 from rescene_core.records import Relation, RoomShell, SceneGraph
@@ -153,17 +153,9 @@ def build_spec(
             rgba=[0.8, 0.8, 0.78, 1],
         )
         height = shell.ceiling_height if shell.ceiling_height else wall_height
-        for wall in shell.walls:
-            extent = wall_extent(shell, wall)
-            if extent is None:
-                continue
-            (x0, y0), (x1, y1) = extent
-            length = float(np.hypot(x1 - x0, y1 - y0))
-            normal = np.asarray(wall.plane.normal, np.float64)
-            centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * wall_thickness / 2
-            yaw = float(np.arctan2(y1 - y0, x1 - x0))
+        for wall_id, centre, yaw, length in wall_boxes(shell, wall_thickness, height):
             world.add_geom(
-                name=f"shell_wall_{wall.id}",
+                name=f"shell_wall_{wall_id}",
                 type=mujoco.mjtGeom.mjGEOM_BOX,
                 size=[length / 2, wall_thickness / 2, height / 2],
                 pos=centre.tolist(),

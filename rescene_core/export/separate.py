@@ -38,11 +38,11 @@ from numpy.typing import NDArray
 
 from rescene_core.export.completions import (
     CARVE_MARGIN,
-    MIN_PIECE_VOLUME,
     Piece,
     Placement,
     _ring,
     _slice,
+    _solid,
     carve,
     face_planes,
     inside_piece,
@@ -225,7 +225,7 @@ def subtract(piece: Piece, other: Piece) -> list[Piece]:
     for normal, offset in zip(normals, offsets, strict=True):
         origin = normal * offset
         beyond = _slice(rest, normal, origin)  # type: ignore[arg-type]
-        if beyond is not None and abs(float(trimesh.Trimesh(*beyond, process=False).volume)) > MIN_PIECE_VOLUME:
+        if _solid(beyond):
             parts.append(beyond)
         rest = _slice(rest, -normal, origin)  # type: ignore[arg-type]
         if rest is None:

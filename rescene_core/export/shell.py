@@ -55,6 +55,24 @@ def wall_extent(shell: RoomShell, wall: WallPlane) -> tuple[NDArray[np.float64],
     return start + t[first] * tangent, start + t[last] * tangent
 
 
+def wall_boxes(
+    shell: RoomShell, thickness: float, height: float
+) -> list[tuple[int, NDArray[np.float64], float, float]]:
+    """One box per wall, behind its plane over its trimmed extent (``wall_extent``): (wall id, world centre
+    [3], yaw about +z (rad), length (m)); the box is ``length`` x ``thickness`` x ``height`` before the yaw."""
+    z0 = floor_height(shell)
+    out = []
+    for wall in shell.walls:
+        extent = wall_extent(shell, wall)
+        if extent is None:
+            continue
+        (x0, y0), (x1, y1) = extent
+        normal = np.asarray(wall.plane.normal, dtype=np.float64)
+        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * thickness / 2
+        out.append((wall.id, centre, float(np.arctan2(y1 - y0, x1 - x0)), float(np.hypot(x1 - x0, y1 - y0))))
+    return out
+
+
 def shell_meshes(shell: RoomShell, config: ExportConfig) -> dict[str, trimesh.Trimesh]:
     """Floor slab (the floor polygon extruded downwards) and one box per wall segment (trimmed to the room's
     outline, ``wall_extent``), world frame."""
@@ -68,18 +86,10 @@ def shell_meshes(shell: RoomShell, config: ExportConfig) -> dict[str, trimesh.Tr
         slab.apply_translation([0.0, 0.0, z0 - config.floor_thickness])
         out["shell_floor"] = slab
     height = shell.ceiling_height if shell.ceiling_height else config.wall_height
-    for wall in shell.walls:
-        extent = wall_extent(shell, wall)
-        if extent is None:
-            continue
-        (x0, y0), (x1, y1) = extent
-        length = float(np.hypot(x1 - x0, y1 - y0))
+    for wall_id, centre, yaw, length in wall_boxes(shell, config.wall_thickness, height):
         box = trimesh.creation.box(extents=[length, config.wall_thickness, height])
-        yaw = float(np.arctan2(y1 - y0, x1 - x0))
-        normal = np.asarray(wall.plane.normal, dtype=np.float64)
-        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, z0 + height / 2]) - normal * config.wall_thickness / 2
         world_from_box = trimesh.transformations.rotation_matrix(yaw, [0, 0, 1])
         world_from_box[:3, 3] = centre
         box.apply_transform(world_from_box)
-        out[f"shell_wall_{wall.id}"] = box
+        out[f"shell_wall_{wall_id}"] = box
     return out
