@@ -235,6 +235,22 @@ def _children(instance: int, graph: SceneGraph | None) -> list[int]:
     )
 
 
+def _depth(instance: int, graph: SceneGraph | None) -> int:
+    """How many ``rests-on`` object edges lie between ``instance`` and the floor or wall (0: it stands on a
+    root); a cycle stops the count."""
+    parent = {
+        int(e.child): int(e.parent)
+        for e in (graph.edges if graph is not None else [])
+        if e.relation == Relation.RESTS_ON and not isinstance(e.parent, Root)
+    }
+    depth, seen = 0, {int(instance)}
+    while instance in parent and parent[instance] not in seen:
+        instance = parent[instance]
+        seen.add(instance)
+        depth += 1
+    return depth
+
+
 def _descendants(instance: int, graph: SceneGraph | None) -> list[int]:
     """Its children, then theirs (breadth first)."""
     out: list[int] = []
@@ -785,7 +801,9 @@ def edit_colliders(
         ]
         return np.vstack(near) if near else np.zeros((0, 3))
 
-    for obj in objects:
+    # the deepest carriers first: a book stack's board under the box it carries is one of its pieces before
+    # the shelf it stands in carves the stack's seat (else the shelf's side keeps the part under that board)
+    for obj in sorted(objects, key=lambda o: -_depth(int(o.instance), graph)):
         name = obj.node_name
         seated, todo, seen = [], [(c, True) for c in _children(obj.instance, graph)], {int(obj.instance)}
         while todo:  # its children, then theirs: a stack on a book inside a shelf stands in the shelf too

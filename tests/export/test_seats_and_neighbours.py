@@ -348,3 +348,32 @@ def test_inside_piece_ignores_degenerate_faces():
         False,
         False,
     ]
+
+
+def test_a_stack_poking_through_a_shelfs_side_has_its_seat_carved_with_the_board_it_carries(tmp_path):
+    """A box wider than a thin shelf carries a smaller box on a support plane inside it that reaches past
+    its side, through the shelf's side panel: the board under the small box's foot is one of the box's
+    pieces before the shelf carves its seat, so no panel is left inside that board."""
+    objects, graph, shell = thin_shelf_scene(width=0.2, back=0.005)
+    plane = np.array([[x, y, 0.05] for x, y in ((-0.09, 0.01), (0.09, 0.01), (0.09, 0.29), (-0.09, 0.29))])
+    box = objects[1]
+    objects[1] = ExportObject(
+        box.instance,
+        box.label,
+        box.vertices,
+        box.faces,
+        box.world_from_asset,
+        completions=(Completion(InstanceId(2), CompletionKind.SUPPORT_PLANE, plane, "parent's points (test)"),),
+    )
+    small = _box([0.0, 0.05, 0.0], [0.2, 0.25, 0.08])
+    objects.append(
+        ExportObject(3, "box", small.vertices, small.faces, sim3.sim3_from_parts(1.0, np.eye(3), [0.0, -1.995, 0.55]))
+    )
+    graph = SceneGraph((*graph.edges, Edge(InstanceId(3), Relation.RESTS_ON, InstanceId(2), 0.9)))
+    run = _export(tmp_path, objects, graph, shell)
+    report = {o["node"]: o for o in json.loads((run / "scene/export_report.json").read_text())["objects"]}
+    assert report["obj_2_box"]["colliders_from_layout"]["boards_under_children"][0]["child"] == "obj_3_box"
+    result = simcheck_run(run, SimcheckConfig())
+    by_node = {o.node: o for o in result.objects}
+    assert by_node["obj_2_box"].penetration_t0 < 2e-3
+    assert by_node["obj_2_box"].stable and by_node["obj_3_box"].stable
