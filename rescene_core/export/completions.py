@@ -156,6 +156,7 @@ class ColliderEdits:
     footing: dict[str, Any] | None = None
     clipped_m: float = 0.0
     separated: list[dict[str, Any]] = field(default_factory=list)
+    walls: dict[str, Any] | None = None
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -166,6 +167,7 @@ class ColliderEdits:
             "boards_under_children": self.boards,
             "footing": self.footing,
             "separated_from_neighbours": self.separated,
+            "cut_at_walls": self.walls,
         }
 
 
@@ -751,11 +753,13 @@ def edit_colliders(
     kinds: dict[str, str],
     methods: dict[str, str],
     masses: dict[str, float] | None = None,
+    shell: RoomShell | None = None,
 ) -> dict[str, ColliderEdits]:
     """Apply the edits of the module doc to ``pieces`` (node -> body-frame decomposition pieces, changed in
     place): clipping to the mesh (CoACD and hull pieces; ``methods``: node -> decomposition method), hollow
-    shells (computed by ``find_hollow``), completions, seats, footings, in that order. ``masses``: node ->
-    kg, for the load a footing carries (1 kg each when not given)."""
+    shells (computed by ``find_hollow``), completions, seats, footings, free bodies' pieces cut at the walls
+    of ``shell`` they graze (rescene_core/export/walls.py), neighbours cut apart, in that order.
+    ``masses``: node -> kg, for the load a footing carries (1 kg each when not given)."""
     places = {o.node_name: placement(o) for o in objects}
     by_instance = {int(o.instance): o for o in objects}
     edits = {o.node_name: ColliderEdits() for o in objects}
@@ -854,6 +858,12 @@ def edit_colliders(
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry
+    from rescene_core.export.walls import clear_of_walls, walls_report
+
+    for name in pieces:
+        if kinds.get(name) == "free":
+            pieces[name], cut = clear_of_walls(places[name], pieces[name], shell)
+            edits[name].walls = walls_report(cut)
     for name, rows in separate(places, pieces, evidence, related, added).items():
         edits[name].separated = rows
     return edits

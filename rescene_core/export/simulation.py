@@ -91,7 +91,7 @@ def export_simulation(
         volume = closed_volume(np.asarray(o.vertices, np.float64) * (scale_of(o.world_from_asset) or 1.0), o.faces)[0]
         masses[o.node_name] = max(density * volume, MIN_MASS)
     methods = {n: d.method for n, d in decompositions.items()}
-    edits = edit_colliders(objects, pieces, hollow, graph, kinds, methods, masses)
+    edits = edit_colliders(objects, pieces, hollow, graph, kinds, methods, masses, shell)
     decompositions = {name: replace(dec, pieces=tuple(pieces[name])) for name, dec in decompositions.items()}
     mjcf_dir = out_dir / _in_scene(paths.SCENE_MJCF_DIR)
     mjcf_dir.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,74 @@
+"""Free objects' collision pieces kept out of the wall boxes they graze.
+
+Attachment counts a footprint up to ``containment_tolerance`` (1 cm) beyond the floor polygon as inside the
+room, and a generated mesh standing against a wall often reaches a few millimetres through it. The simulator
+has a solid box behind each wall's plane (``shell.wall_boxes``): a free body starting 5-10 mm inside one is
+pushed out at t = 0, and a tall one (a floor lamp in a corner) tips over. A piece of a free body that crosses
+a wall's plane by at most ``MAX_DEPTH``, where the wall's box is (along its trimmed extent,
+``shell.wall_extent``), is cut at the plane and keeps its room side (a convex piece cut by a plane stays
+convex). A deeper crossing is a layout fault: it is left as it is, and the physics check reports it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rescene_core.export.completions import Piece, Placement, _slice, _solid
+from rescene_core.export.shell import wall_extent
+from rescene_core.records import RoomShell
+
+MIN_DEPTH = 0.002
+"""Crossings shallower than this (m) are left (MuJoCo resolves millimetres quietly)."""
+MAX_DEPTH = 0.02
+"""Deepest crossing (m) cut away: twice the containment tolerance attachment accepts."""
+
+
+def clear_of_walls(
+    place: Placement, pieces: list[Piece], shell: RoomShell | None
+) -> tuple[list[Piece], dict[str, float]]:
+    """``pieces`` (body frame) cut at the planes of the walls whose boxes they reach into by at most
+    ``MAX_DEPTH``; returns the pieces and {wall id: deepest crossing cut (m)}."""
+    if shell is None:
+        return pieces, {}
+    out = list(pieces)
+    cut: dict[str, float] = {}
+    for wall in shell.walls:
+        extent = wall_extent(shell, wall)
+        if extent is None:
+            continue
+        start, end = np.asarray(extent[0], np.float64), np.asarray(extent[1], np.float64)
+        length = float(np.linalg.norm(end - start))
+        if length <= 0:
+            continue
+        tangent = (end - start) / length
+        normal = np.asarray(wall.plane.normal, np.float64)
+        origin = -float(wall.plane.offset) * normal
+        for k, piece in enumerate(out):
+            world = place.world(piece[0])
+            signed = world @ normal + float(wall.plane.offset)
+            behind = signed < -MIN_DEPTH
+            if not behind.any():
+                continue
+            along = (world[behind, :2] - start) @ tangent
+            depth = float(-signed.min())
+            if depth > MAX_DEPTH or along.max() < 0 or along.min() > length:
+                continue  # a layout fault, or the plane beyond the wall's box (another wing of the room)
+            kept = _slice((world, piece[1]), normal, origin)
+            if not _solid(kept):
+                continue
+            out[k] = (place.body(kept[0]), kept[1])  # type: ignore[index]
+            cut[str(wall.id)] = round(max(cut.get(str(wall.id), 0.0), depth), 4)
+    return out, cut
+
+
+def walls_report(cut: dict[str, float]) -> dict[str, Any] | None:
+    """The export report's entry for one object's pieces cut at walls (None: none cut)."""
+    if not cut:
+        return None
+    return {
+        "depth_m": cut,
+        "why": "its pieces reached into the box behind a wall's plane (the room's attachment tolerance): cut at "
+        "the plane",
+    }
