@@ -220,3 +220,16 @@ def wait_slot_released(log: Path, flow_run_id: str, timeout: float = 120) -> Non
     while line not in log.read_text(errors="replace"):
         assert time.monotonic() < deadline, f"worker still holds flow run {flow_run_id} after {timeout} s"
         time.sleep(0.2)
+
+
+def post_retrying(url: str, json: dict, attempts: int = 5, timeout: float = 10) -> httpx.Response:
+    """POST ``json`` to ``url``, again after 503 Service Unavailable (the server's database busy under load,
+    as Prefect's own client retries it), at most ``attempts`` times with a doubling pause from 0.5 s."""
+    pause = 0.5
+    for _ in range(attempts - 1):
+        response = httpx.post(url, json=json, timeout=timeout)
+        if response.status_code != 503:
+            return response
+        time.sleep(pause)
+        pause *= 2
+    return httpx.post(url, json=json, timeout=timeout)

@@ -15,7 +15,7 @@ import time
 import httpx
 import pytest
 
-from tests.flows.prefect_server import REPO, wait_slot_released
+from tests.flows.prefect_server import REPO, post_retrying, wait_slot_released
 from tests.flows.prefect_server import prefect_cli as _cli
 
 SITECUSTOMIZE = """
@@ -77,13 +77,12 @@ def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operat
     run_dir.mkdir(parents=True)
     (run_dir / "faults.json").write_text(json.dumps([{"stage": "asset", "item": 3, "kind": "bad_input", "times": 1}]))
     deployment = httpx.get(f"{api}/deployments/name/rescene/scene", timeout=10).json()
-    response = httpx.post(
+    response = post_retrying(
         f"{api}/deployments/{deployment['id']}/create_flow_run",
         json={
             "parameters": {"capture": str(capture), "run_dir": str(run_dir)},
             "job_variables": operator_stack["job_variables"],
         },
-        timeout=10,
     )
     assert response.status_code == 201, response.text
     flow_run = response.json()
@@ -96,7 +95,7 @@ def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operat
     # the UI's Retry: the same flow run back to Scheduled (AwaitingRetry), forced; the worker picks it up
     # (once it has let go of the first run's process, as an operator reading the failure would find it)
     wait_slot_released(operator_stack["worker_log"], flow_run["id"])
-    response = httpx.post(f"{api}/flow_runs/{flow_run['id']}/set_state", json=UI_RETRY, timeout=10)
+    response = post_retrying(f"{api}/flow_runs/{flow_run['id']}/set_state", json=UI_RETRY)
     assert response.status_code in (200, 201), response.text
     assert response.json()["status"] == "ACCEPT"
     second = _wait_final(api, flow_run["id"], after=first["id"])
