@@ -237,9 +237,10 @@ UNDERSIDE_BAND = 0.25
 
 
 def add_tipping_bases(state: LayoutState) -> None:
-    """A base under a generated object resting on the floor whose mesh touches the floor only at an edge
-    (its footprint centre more than TIPPING_MARGIN outside the hull of its vertices within CONTACT_BAND of
-    the floor: a single-view completion with a sloped underside, a bed that would tip over in a simulator).
+    """A base under a generated object resting on the floor whose mesh (with the base ``add_bases`` gave it,
+    if any) touches the floor only at an edge (its footprint centre more than TIPPING_MARGIN outside the hull
+    of its vertices within CONTACT_BAND of the floor: a single-view completion with a sloped underside, a bed
+    that would tip over in a simulator, a cabinet whose points showed the gap under its front only).
     The base is the convex hull of the mesh's lower part (vertices within UNDERSIDE_BAND of its height above
     its bottom) and of its whole footprint (cut as the object is cut) on the floor: it fills under the object
     without reaching beyond its footprint, and is not added where another object reaches into that space."""
@@ -250,13 +251,19 @@ def add_tipping_bases(state: LayoutState) -> None:
         obj = state.objects[child]
         if obj.exact_shape or not (edge.parent is Root.FLOOR and edge.relation is Relation.RESTS_ON):
             continue
-        if any(c.kind is CompletionKind.BASE for c in state.completions.get(child, ())):
-            continue
         verts = cut_vertices(state, child)
         heights = room.floor_distance(verts)
-        if heights.min() > CONTACT_BAND:  # not on the floor at all: not this rule's case
+        # a base under part of it (where its points showed the gap) is part of what it stands on
+        based = [
+            apply(state.pose(child), c.points_asset)
+            for c in state.completions.get(child, ())
+            if c.kind is CompletionKind.BASE
+        ]
+        standing = np.vstack([verts, *based])
+        standing_h = room.floor_distance(standing)
+        if standing_h.min() > CONTACT_BAND:  # not on the floor at all: not this rule's case
             continue
-        contact = MultiPoint(verts[heights <= heights.min() + CONTACT_BAND][:, :2]).convex_hull
+        contact = MultiPoint(standing[standing_h <= standing_h.min() + CONTACT_BAND][:, :2]).convex_hull
         centre = footprint(verts).centroid
         inside = contact.buffer(-TIPPING_MARGIN) if isinstance(contact, Polygon) else None
         if inside is not None and not inside.is_empty and inside.contains(centre):

@@ -239,3 +239,25 @@ def test_a_mesh_touching_the_floor_only_at_an_edge_gets_a_base_under_it():
     box = box_object(2, "bed", (2.0, 1.6, 0.6), placed(2.0, 2.8), exact_shape=False)
     graph = SceneGraph((Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0),))
     assert not attach({InstanceId(2): box}, graph, rect_room(), AttachmentConfig(near_wall_snap=False)).completions()
+
+
+def test_a_base_under_part_of_an_object_counts_and_one_under_its_lower_part_is_added_when_it_tips():
+    # a generated cabinet seen 0.2 m up, its points reaching the floor only along its front (x < 1.85):
+    # the base from those points carries its front edge, its centre (x = 2.0) is far behind it
+    from rescene_core.assembly.objects import footprint
+
+    rng = np.random.default_rng(4)
+    body = np.c_[rng.uniform(1.75, 2.25, 800), rng.uniform(1.9, 3.1, 800), rng.uniform(0.3, 0.8, 800)]
+    front = np.c_[rng.uniform(1.75, 1.85, 200), rng.uniform(1.9, 3.1, 200), rng.uniform(0.0, 0.2, 200)]
+    cabinet = box_object(1, "cabinet", (0.5, 1.2, 0.6), placed(2.0, 2.5, 0.2), exact_shape=False)
+    cabinet = replace(cabinet, points=np.vstack([body, front]))
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    layout = attach({InstanceId(1): cabinet}, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    bases = layout.completions()[InstanceId(1)]
+    assert [c.kind.value for c in bases] == ["base", "base"]
+    assert "observed points" in bases[0].source and "only at an edge" in bases[1].source
+    pose = layout.world_from_asset[InstanceId(1)]
+    first, second = (apply(pose, c.points_asset) for c in bases)
+    centre = footprint(cabinet.world_vertices(pose)).centroid
+    assert not footprint(first).contains(centre)
+    assert abs(second[:, 2].min()) < 1e-9 and footprint(second).buffer(1e-6).contains(centre)
