@@ -169,12 +169,17 @@ def compile_wall(
     side: dict[str, Any] = {}
     verts = state.vertices(child)
     pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
-    correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    if obj.exact_shape:
+        correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    else:
+        # a generated asset's frame is z-up (both backends): nothing hangs on a wall on its side, so a tilt
+        # past the limit is registration rolling a box-like shape about its long axis (a wall shelf 48 deg)
+        correction, tilt = level_correction(pose, room.up, pivot, np.pi, candidates=(2,))
     if plan.axis >= 0:  # exact shape: the asset axis is the object's back axis
         axis = plan.sign * (correction @ pose)[:3, plan.axis]
         yaw = signed_yaw(axis, -wall.normal, room.up)
     else:  # generated asset: the back face is read from the mesh faces (none found: keep the yaw)
-        faces = face_yaw(state, child, -wall.normal, np.radians(cfg.max_wall_yaw_deg))
+        faces = face_yaw(state, child, -wall.normal, np.radians(cfg.max_wall_yaw_deg), correction @ pose)
         yaw, side = wall_side_yaw(
             obj, correction @ pose, wall, room.up, faces, np.radians(cfg.max_wall_yaw_deg), cfg.wall_side_min_gain
         )

@@ -107,12 +107,16 @@ def containment_footprint(state: LayoutState, i: InstanceId) -> Polygon:
     return hull if isinstance(hull, Polygon) else fp
 
 
-def face_yaw(state: LayoutState, i: InstanceId, direction: NDArray, max_yaw_rad: float) -> float | None:
+def face_yaw(
+    state: LayoutState, i: InstanceId, direction: NDArray, max_yaw_rad: float, pose: NDArray | None = None
+) -> float | None:
     """Signed yaw (rad, about the room's up) turning object i's nearest vertical face direction onto
-    ``direction`` (either sense), within ``max_yaw_rad``; None when no face direction is strong enough."""
+    ``direction`` (either sense), within ``max_yaw_rad``; None when no face direction is strong enough.
+    ``pose``: world_from_asset [4, 4] to read the faces at (default: its current pose)."""
     up = state.room.up
     obj = state.objects[i]
-    tri = state.vertices(i)[np.asarray(obj.faces)]
+    verts = state.vertices(i) if pose is None else obj.world_vertices(pose)
+    tri = verts[np.asarray(obj.faces)]
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     area = 0.5 * np.linalg.norm(normals, axis=1)
     ok = area > 1e-12

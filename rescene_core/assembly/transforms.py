@@ -73,13 +73,19 @@ def nearest_axis(world_from_asset: NDArray, direction: NDArray, candidates: tupl
     return idx, sign, sign * axes[:, idx]
 
 
-def level_correction(world_from_asset: NDArray, up: NDArray, pivot: NDArray, max_tilt_rad: float):
-    """Rotation about ``pivot`` putting the asset axis nearest to ``up`` onto ``up``.
+def level_correction(
+    world_from_asset: NDArray,
+    up: NDArray,
+    pivot: NDArray,
+    max_tilt_rad: float,
+    candidates: tuple[int, ...] = (0, 1, 2),
+):
+    """Rotation about ``pivot`` putting the asset axis nearest to ``up`` (among ``candidates``) onto ``up``.
 
     Returns (correction [4, 4], tilt removed in radians); identity when the tilt exceeds ``max_tilt_rad``
     (then the object is lying on purpose or the asset frame is not upright).
     """
-    _, _, axis = nearest_axis(world_from_asset, up)
+    _, _, axis = nearest_axis(world_from_asset, up, candidates)
     rotvec = align_rotvec(axis, up)
     tilt = float(np.linalg.norm(rotvec))
     if tilt < 1e-9 or tilt > max_tilt_rad:

@@ -130,3 +130,22 @@ def test_objects_without_points_keep_the_face_direction_rule():
     with_rule = attach(bare, graph, shell, AttachmentConfig()).world_from_asset[InstanceId(1)]
     without = attach(bare, graph, shell, AttachmentConfig(wall_side_min_gain=None)).world_from_asset[InstanceId(1)]
     np.testing.assert_allclose(with_rule, without, atol=1e-12)
+
+
+def test_a_shelf_registered_rolled_about_its_long_axis_is_levelled_by_its_own_up_axis():
+    # a 0.9 x 0.25 x 0.18 m generated wall shelf (its frame z-up, as both generators make it) registered
+    # rolled 48 deg about its long axis (x): past the 45 deg levelling limit of the nearest axis
+    from rescene_core.assembly.transforms import rotation_about
+
+    rng = np.random.default_rng(5)
+    pts = np.c_[rng.uniform(1.55, 2.45, 3000), rng.uniform(0.0, 0.25, 3000), rng.uniform(1.5, 1.68, 3000)]
+    rolled = placed(2.0, 0.14, 1.59) @ rotation_about([np.radians(48.0), 0.0, 0.0], [0.0, 0.0, 0.0])
+    obj = replace(box_object(1, "wall shelf", (0.9, 0.25, 0.18), rolled, exact_shape=False), points=pts)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, 0.63, wall_id=0),))
+    objects, shell = {obj.instance: obj}, rect_room()
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    pose = layout.world_from_asset[InstanceId(1)]
+    np.testing.assert_allclose(pose[:3, 2] / np.linalg.norm(pose[:3, 2]), [0.0, 0.0, 1.0], atol=1e-6)
+    ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig())
+    assert ok and angle < 1.0
+    assert abs(np.ptp(obj.world_vertices(pose)[:, 2]) - 0.18) < 1e-6  # its own height, not a 48 deg diagonal
