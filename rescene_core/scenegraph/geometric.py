@@ -49,13 +49,17 @@ OCCLUSION_ROWS = 2
 
 def bottom_occluded(view, instance: int) -> bool:
     """Whether most of the instance's lower outline is hidden in this frame: the pixel just below it shows
-    a nearer instance or lies outside the image. Needs depth (False without)."""
+    a nearer instance or lies outside the image, or the instance reaches the image's left or right edge
+    (it goes on outside the frame, and so may its base: a floor lamp whose head alone is in the corner of
+    the picture). Needs depth (False without)."""
     if view.depth is None:
         return False
     m = view.mask == instance
     cols = np.flatnonzero(m.any(axis=0))
     if not len(cols):
         return False
+    if cols[0] == 0 or cols[-1] == m.shape[1] - 1:
+        return True
     height = m.shape[0]
     lowest = height - 1 - np.argmax(m[::-1, cols], axis=0)
     below = lowest + OCCLUSION_ROWS
