@@ -211,13 +211,14 @@ def stop_unused_after(item) -> None:
             _RUNNING.pop(name).close()
 
 
-def wait_slot_released(log: Path, flow_run_id: str, timeout: float = 120) -> None:
-    """Wait until the worker logging to ``log`` has let go of the flow run (its process ended and its
-    slot is free). A flow run sent back to Scheduled before that is refused by the worker (Prefect's
-    limiter takes one slot per flow run id), which would stop it."""
+def wait_slot_released(log: Path, flow_run_id: str, timeout: float = 120, times: int = 1) -> None:
+    """Wait until the worker logging to ``log`` has let go of the flow run ``times`` times (its process
+    ended and its slot is free). A flow run sent back to Scheduled before that is refused by the worker
+    (Prefect's limiter takes one slot per flow run id), which would stop it; a worker stopped before that
+    waits for the run's process and is killed after 30 s."""
     line = f"Limit slot released for flow run '{flow_run_id}'"
     deadline = time.monotonic() + timeout
-    while line not in log.read_text(errors="replace"):
+    while log.read_text(errors="replace").count(line) < times:
         assert time.monotonic() < deadline, f"worker still holds flow run {flow_run_id} after {timeout} s"
         time.sleep(0.2)
 

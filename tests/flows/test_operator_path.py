@@ -109,3 +109,5 @@ def test_prefect_deploy_then_ui_retry_recomputes_only_the_failed_instance(operat
         assert set(stages[stage]) == {"cached"}, (stage, stages[stage])
     for stage in ("fusion", "attachment", "export"):
         assert stages[stage] == {"completed": 1}, (stage, stages[stage])
+    # the worker lets go of the retried run before the fixture stops it (else it waits 30 s for the process)
+    wait_slot_released(operator_stack["worker_log"], flow_run["id"], times=2)
