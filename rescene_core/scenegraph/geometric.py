@@ -72,6 +72,13 @@ def bottom_occluded(view, instance: int) -> bool:
     return bool((out.sum() + hidden.sum()) > 0.5 * len(cols))
 
 
+def flat_on_a_wall(points, shell, cfg) -> bool:
+    """Whether the points [n, 3] lie flat against a wall: their bulk (median) within ``wall_flush_tol`` of
+    its plane and at most ``wall_max_depth`` deep (a picture, a mirror, a TV)."""
+    flush, flush_d, flush_span = wall_flush(points, shell)
+    return flush is not None and flush_d <= cfg.wall_flush_tol and flush_span <= cfg.wall_max_depth
+
+
 class GeometricPredictor:
     """Per-frame relations from the frame's visible geometry (no model weights)."""
 
@@ -107,8 +114,7 @@ class GeometricPredictor:
             return Relation.RESTS_ON.value, Root.FLOOR.value
         if b <= cfg.floor_contact_tol:
             return Relation.RESTS_ON.value, Root.FLOOR.value
-        flush, flush_d, flush_span = wall_flush(p, shell)
-        if flush is not None and flush_d <= cfg.wall_flush_tol and flush_span <= cfg.wall_max_depth:
+        if flat_on_a_wall(p, shell, cfg):
             return Relation.MOUNTS_ON.value, Root.WALL.value
         xy = p[:, :2]
         best, best_key = None, None
@@ -116,6 +122,8 @@ class GeometricPredictor:
         for q, pq in pts.items():
             if q == d or len(pq) < cfg.min_points or not bottom[q] < b - cfg.support_tol:
                 continue
+            if flat_on_a_wall(pq, shell, cfg):
+                continue  # a picture or a mirror hangs flat on its wall and carries nothing (a shelf just above it)
             hq = h[q]
             # an upward-facing surface of q at the child's bottom height (a bed's side beside a nightstand,
             # or the neighbouring book's side, is at that height too, but faces sideways)
