@@ -61,6 +61,17 @@ ONE_WALL_SHELL = RoomShell(
 )
 """A 4 x 4 m room, 2.5 m high, with one wall along y = -2 (the simulation exports' and checks' tests)."""
 
+CORNER_SHELL = RoomShell(
+    floor=Plane((0.0, 0.0, 1.0), 0.0),
+    walls=(
+        WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),
+        WallPlane(1, Plane((1.0, 0.0, 0.0), 2.0), ((-2.0, 2.0), (-2.0, -2.0))),
+    ),
+    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
+    ceiling_height=2.5,
+)
+"""The same room with a second wall along x = -2, meeting the first in a corner."""
+
 
 def pinhole(width: int, height: int, focal: float) -> NDArray[np.float64]:
     """Intrinsics [3, 3] with the principal point at the image centre (pixel centres at half-integers)."""

@@ -52,6 +52,11 @@ in ``scene/export_report.json`` under the object.
   that overlap where neither object's mesh or completions are, are cut apart by a plane between the two,
   or, when no plane separates them, the piece filling a concavity the other stands in is carved there;
   when neither works, one piece gives way to the other (convex subtraction).
+* **Walls** (rescene_core/export/walls.py): a free object's piece that reaches into the box behind a wall's
+  plane by at most ``walls.MAX_DEPTH`` is cut at the plane.
+
+Seats are carved deepest carrier first, so a child's board under its own child is one of its pieces when
+its parent carves its seat.
 """
 
 from __future__ import annotations
@@ -237,14 +242,18 @@ def _children(instance: int, graph: SceneGraph | None) -> list[int]:
     )
 
 
-def _depth(instance: int, graph: SceneGraph | None) -> int:
-    """How many ``rests-on`` object edges lie between ``instance`` and the floor or wall (0: it stands on a
-    root); a cycle stops the count."""
-    parent = {
+def _object_parents(graph: SceneGraph | None) -> dict[int, int]:
+    """Child -> the object it rests on (``rests-on`` edges to an object, not to the floor or a wall)."""
+    return {
         int(e.child): int(e.parent)
         for e in (graph.edges if graph is not None else [])
         if e.relation == Relation.RESTS_ON and not isinstance(e.parent, Root)
     }
+
+
+def _depth(instance: int, parent: dict[int, int]) -> int:
+    """How many ``rests-on`` object edges (``parent``: ``_object_parents``) lie between ``instance`` and the
+    floor or wall (0: it stands on a root); a cycle stops the count."""
     depth, seen = 0, {int(instance)}
     while instance in parent and parent[instance] not in seen:
         instance = parent[instance]
@@ -807,7 +816,8 @@ def edit_colliders(
 
     # the deepest carriers first: a book stack's board under the box it carries is one of its pieces before
     # the shelf it stands in carves the stack's seat (else the shelf's side keeps the part under that board)
-    for obj in sorted(objects, key=lambda o: -_depth(int(o.instance), graph)):
+    parent_object = _object_parents(graph)
+    for obj in sorted(objects, key=lambda o: -_depth(int(o.instance), parent_object)):
         name = obj.node_name
         seated, todo, seen = [], [(c, True) for c in _children(obj.instance, graph)], {int(obj.instance)}
         while todo:  # its children, then theirs: a stack on a book inside a shelf stands in the shelf too
@@ -858,11 +868,12 @@ def edit_colliders(
         if piece is not None:
             pieces[name].append(piece)
         edits[name].footing = entry
-    from rescene_core.export.walls import clear_of_walls, walls_report
+    from rescene_core.export.walls import clear_of_walls, trimmed_walls, walls_report
 
+    walls = trimmed_walls(shell)
     for name in pieces:
         if kinds.get(name) == "free":
-            pieces[name], cut = clear_of_walls(places[name], pieces[name], shell)
+            pieces[name], cut = clear_of_walls(places[name], pieces[name], walls)
             edits[name].walls = walls_report(cut)
     for name, rows in separate(places, pieces, evidence, related, added).items():
         edits[name].separated = rows

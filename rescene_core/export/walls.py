@@ -14,35 +14,45 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rescene_core.export.completions import Piece, Placement, _slice, _solid
+from rescene_core.export.separate import MIN_DEPTH
 from rescene_core.export.shell import wall_extent
-from rescene_core.records import RoomShell
+from rescene_core.records import RoomShell, WallPlane
 
-MIN_DEPTH = 0.002
-"""Crossings shallower than this (m) are left (MuJoCo resolves millimetres quietly)."""
 MAX_DEPTH = 0.02
-"""Deepest crossing (m) cut away: twice the containment tolerance attachment accepts."""
+"""Deepest crossing (m) cut away: twice the containment tolerance attachment accepts. Crossings shallower
+than ``separate.MIN_DEPTH`` are left, as between neighbours (MuJoCo resolves millimetres quietly)."""
+
+TrimmedWall = tuple[WallPlane, NDArray[np.float64], NDArray[np.float64], float]
+"""A wall, the start [2] of its trimmed extent, the unit tangent [2] along it and its length (m)."""
 
 
-def clear_of_walls(
-    place: Placement, pieces: list[Piece], shell: RoomShell | None
-) -> tuple[list[Piece], dict[str, float]]:
-    """``pieces`` (body frame) cut at the planes of the walls whose boxes they reach into by at most
-    ``MAX_DEPTH``; returns the pieces and {wall id: deepest crossing cut (m)}."""
+def trimmed_walls(shell: RoomShell | None) -> list[TrimmedWall]:
+    """The walls of ``shell`` with their trimmed extents (``shell.wall_extent``), once per scene."""
+    out: list[TrimmedWall] = []
     if shell is None:
-        return pieces, {}
-    out = list(pieces)
-    cut: dict[str, float] = {}
+        return out
     for wall in shell.walls:
         extent = wall_extent(shell, wall)
         if extent is None:
             continue
         start, end = np.asarray(extent[0], np.float64), np.asarray(extent[1], np.float64)
         length = float(np.linalg.norm(end - start))
-        if length <= 0:
-            continue
-        tangent = (end - start) / length
+        if length > 0:
+            out.append((wall, start, (end - start) / length, length))
+    return out
+
+
+def clear_of_walls(
+    place: Placement, pieces: list[Piece], walls: list[TrimmedWall]
+) -> tuple[list[Piece], dict[str, float]]:
+    """``pieces`` (body frame) cut at the planes of the ``walls`` (``trimmed_walls``) whose boxes they reach
+    into by at most ``MAX_DEPTH``; returns the pieces and {wall id: deepest crossing cut (m)}."""
+    out = list(pieces)
+    cut: dict[str, float] = {}
+    for wall, start, tangent, length in walls:
         normal = np.asarray(wall.plane.normal, np.float64)
         origin = -float(wall.plane.offset) * normal
         for k, piece in enumerate(out):

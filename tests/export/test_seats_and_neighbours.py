@@ -28,15 +28,13 @@ from rescene_core.records import (
     CompletionKind,
     Edge,
     InstanceId,
-    Plane,
     Relation,
     RoomShell,
     Root,
     SceneGraph,
-    WallPlane,
 )
 from rescene_core.sim import SimcheckConfig, simcheck_run
-from tests.fixtures import ONE_WALL_SHELL
+from tests.fixtures import CORNER_SHELL, ONE_WALL_SHELL
 
 pytest.importorskip("mujoco")
 
@@ -110,17 +108,6 @@ def test_pieces_that_fill_a_concavity_under_a_child_are_carved():
     assert top_under_cup == pytest.approx(0.25, abs=1e-6)
 
 
-SHELL_CORNER = RoomShell(
-    floor=Plane((0.0, 0.0, 1.0), 0.0),
-    walls=(
-        WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),
-        WallPlane(1, Plane((1.0, 0.0, 0.0), 2.0), ((-2.0, 2.0), (-2.0, -2.0))),
-    ),
-    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
-    ceiling_height=2.5,
-)
-
-
 def thin_shelf_scene(shell: RoomShell = ONE_WALL_SHELL, x0: float = 0.0, width: float = 0.2, back: float = 0.025):
     """A generated 'bookshelf' only 12 cm deep and 30 cm wide against wall 0 (its back at y = -2) with a
     board at 0.5 m (10 cm deep), and a box ``width`` wide and 30 cm deep standing on the board, its back
@@ -181,9 +168,9 @@ def test_a_box_wider_than_a_thin_generated_shelf_has_its_side_panels_carved(tmp_
 def test_a_shelf_in_a_corner_opens_towards_the_room():
     from rescene_core.export.completions import hollow_shell
 
-    objects, _, _ = thin_shelf_scene(SHELL_CORNER, x0=-2.0 + 0.151)
+    objects, _, _ = thin_shelf_scene(CORNER_SHELL, x0=-2.0 + 0.151)
     shelf, book = objects
-    _, entry = hollow_shell(shelf, placement(shelf), [placement(book)], SHELL_CORNER)
+    _, entry = hollow_shell(shelf, placement(shelf), [placement(book)], CORNER_SHELL)
     assert "corner" in entry["reason"]
     assert entry["open_side_world"] == pytest.approx([0.0, 1.0, 0.0], abs=1e-6)  # not into wall 1 at x = -2
 

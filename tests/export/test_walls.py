@@ -11,22 +11,12 @@ import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.completions import placement
-from rescene_core.export.walls import MAX_DEPTH, clear_of_walls
+from rescene_core.export.walls import MAX_DEPTH, clear_of_walls, trimmed_walls
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
+from tests.fixtures import CORNER_SHELL
 
 pytest.importorskip("mujoco")
-
-CORNER = RoomShell(
-    floor=Plane((0.0, 0.0, 1.0), 0.0),
-    walls=(
-        WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (2.0, -2.0))),
-        WallPlane(1, Plane((1.0, 0.0, 0.0), 2.0), ((-2.0, 2.0), (-2.0, -2.0))),
-    ),
-    floor_polygon=((-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)),
-    ceiling_height=2.5,
-)
-"""A 4 x 4 m room with walls along y = -2 and x = -2 meeting in a corner."""
 
 
 def lamp(into: float) -> ExportObject:
@@ -44,18 +34,18 @@ def test_pieces_grazing_a_wall_are_cut_at_its_plane_and_deep_ones_are_left():
     box = trimesh.creation.box(bounds=[[0.0, 0.0, 1.0], [0.4, 0.4, 1.6]])
     pieces = [(np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64))]
     place = placement(obj)
-    cut, depth = clear_of_walls(place, pieces, CORNER)
+    cut, depth = clear_of_walls(place, pieces, trimmed_walls(CORNER_SHELL))
     world = place.world(cut[0][0])
     assert world[:, :2].min() == pytest.approx(-2.0, abs=1e-9)  # on both planes, not behind them
     assert depth == {"0": pytest.approx(0.008), "1": pytest.approx(0.008)}
     deep = lamp(MAX_DEPTH + 0.03)
-    kept, none = clear_of_walls(placement(deep), pieces, CORNER)
+    kept, none = clear_of_walls(placement(deep), pieces, trimmed_walls(CORNER_SHELL))
     assert none == {} and kept[0] is pieces[0]
 
 
 def test_a_wall_plane_beyond_its_segment_cuts_nothing():
     short = RoomShell(
-        floor=CORNER.floor,
+        floor=CORNER_SHELL.floor,
         walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (-1.0, -2.0))),),
         floor_polygon=((-2.0, -2.0), (-1.0, -2.0), (-1.0, 2.0), (-2.0, 2.0)),
         ceiling_height=2.5,
@@ -64,7 +54,7 @@ def test_a_wall_plane_beyond_its_segment_cuts_nothing():
     obj = ExportObject(1, obj.label, obj.vertices, obj.faces, sim3.sim3_from_parts(1.0, np.eye(3), [0.5, -2.008, 0]))
     box = trimesh.creation.box(bounds=[[0.0, 0.0, 0.0], [0.4, 0.4, 1.6]])
     pieces = [(np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64))]
-    _, depth = clear_of_walls(placement(obj), pieces, short)
+    _, depth = clear_of_walls(placement(obj), pieces, trimmed_walls(short))
     assert depth == {}
 
 
@@ -73,7 +63,9 @@ def test_a_tall_lamp_8_mm_into_both_walls_of_a_corner_stands(tmp_path):
 
     graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.9),))
     run = tmp_path / "run"
-    export_scene(run / "scene", [lamp(0.008)], CORNER, graph, [], ExportConfig(decomposition_cache=str(tmp_path / "c")))
+    export_scene(
+        run / "scene", [lamp(0.008)], CORNER_SHELL, graph, [], ExportConfig(decomposition_cache=str(tmp_path / "c"))
+    )
     report = json.loads((run / "scene/export_report.json").read_text())["objects"][0]["colliders_from_layout"]
     assert set(report["cut_at_walls"]["depth_m"]) == {"0", "1"}
     result = simcheck_run(run, SimcheckConfig())
