@@ -26,7 +26,7 @@ from rescene_core.capture import open_capture
 from rescene_core.evaluation.judge import scene_views
 from rescene_core.evaluation.rendering import _mean_color, scaled, scene_render_meshes
 from rescene_core.evaluation.scene import load_scene, placed_meshes
-from rescene_core.export import ExportConfig, shell_meshes
+from rescene_core.export import ExportConfig, node_name, shell_meshes
 from rescene_core.io import read_json, write_bytes_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import RoomShell
@@ -98,7 +98,7 @@ def viewer_glb(
         rgba = np.array([*colors.get(i, (0.6, 0.6, 0.6)), 1.0]) * 255
         _paint(m, rgba.astype(np.uint8))
         m.apply_transform(y_up)
-        scene.add_geometry(m, node_name=f"obj_{i}_{label.replace(' ', '_')}")
+        scene.add_geometry(m, node_name=node_name(i, label))
     for name, mesh in sorted(shell.items()):
         m = mesh.copy()
         if name != "shell_floor":

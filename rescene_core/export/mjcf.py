@@ -8,6 +8,11 @@ rescene_core/export/collision.py. Mass = bulk density of the category x the clos
 (rescene_core/export/physics_tables.py); MuJoCo computes the inertia from the collision pieces, whose
 density is set so they carry exactly that mass. Friction per category.
 
+Names: a body, its geoms ``<node>/visual`` and ``<node>/col<k>``, its meshes and their files
+``meshes/<node>.stl``, ``meshes/<node>_col<k>.stl`` are named by the object's name (rescene_core/export/names.py,
+the glTF node's); the label verbatim is a ``<custom><text name="rescene:label:<node>">`` element
+(``mjcf_labels`` reads them back) and in scene.json.
+
 Frames: world z up, metres, as the run. A body's frame is the object's pose with the scale taken out
 (position t and rotation R of world_from_asset = [s R | t]); its meshes are the asset meshes scaled by s.
 """
@@ -23,6 +28,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from rescene_core.export.collision import Decomposition
+from rescene_core.export.names import MJCF_LABEL_TEXT
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
 from rescene_core.export.shell import floor_height, wall_boxes
@@ -188,6 +194,8 @@ def build_spec(
             notes.append(f"mass {mass:.3g} kg raised to the floor of {MIN_MASS} kg")
             mass = MIN_MASS
         body = world.add_body(name=name, pos=pose[:3, 3].tolist(), quat=[quat_xyzw[3], *quat_xyzw[:3]])
+        if obj.label and "]]>" not in obj.label:  # MuJoCo refuses an empty text; its writer cuts at "]]>"
+            spec.add_text(name=f"{MJCF_LABEL_TEXT}{name}", data=obj.label)
         if kind == "free":
             body.add_freejoint(name=f"{name}/free")
         if not solid_points(vertices):
@@ -236,6 +244,20 @@ def build_spec(
             )
         )
     return spec, records
+
+
+def mjcf_labels(model: Any) -> dict[str, str]:
+    """{body name: label} of a compiled ``mujoco.MjModel`` exported here, from its ``rescene:label:<name>``
+    text elements (an object whose label is empty has none)."""
+    import mujoco
+
+    out = {}
+    for i in range(model.ntext):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
+        if name.startswith(MJCF_LABEL_TEXT):
+            start, size = int(model.text_adr[i]), int(model.text_size[i])
+            out[name[len(MJCF_LABEL_TEXT) :]] = bytes(model.text_data[start : start + size - 1]).decode()
+    return out
 
 
 def write_mjcf(spec: Any, out_dir: Path) -> Path:

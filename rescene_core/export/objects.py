@@ -9,6 +9,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.export.names import node_name
 from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
 
 
@@ -34,12 +35,8 @@ class ExportObject:
 
     @property
     def node_name(self) -> str:
+        """The object's name in every export (rescene_core/export/names.py)."""
         return node_name(self.instance, self.label)
-
-
-def node_name(instance: int, label: str) -> str:
-    """Scene node name of an object: ``obj_<id>_<label>`` (label spaces become underscores)."""
-    return f"obj_{int(instance)}_{label.replace(' ', '_')}"
 
 
 def placed_object(

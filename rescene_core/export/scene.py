@@ -18,6 +18,7 @@ import trimesh
 
 from rescene_core.config import ExportConfig
 from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
+from rescene_core.export.names import check_unique
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
 from rescene_core.export.shell import shell_meshes
@@ -86,11 +87,13 @@ def export_scene(
     extra: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Write scene.glb (+Y up, see rescene_core/export/gltf.py), scene.json and objects/<node>.glb under
-    ``out_dir``; returns {file: sha256}.
+    ``out_dir``; returns {file: sha256}. Node names come from rescene_core/export/names.py; the label is
+    kept verbatim in scene.json and the node's ``extras``.
 
     extra: additional top-level fields for scene.json (e.g. the capture and the backends that ran).
     """
     out_dir = Path(out_dir)
+    check_unique((o.instance, o.label) for o in objects)
     hashes: dict[str, str] = {}
     entries = []
     parents = graph.parent_of() if graph is not None else {}

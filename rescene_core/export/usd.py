@@ -8,7 +8,9 @@ collision pieces ``collision_<k>`` (the same pieces as the MJCF, purpose ``guide
 MeshCollisionAPI convexHull). Free objects get RigidBodyAPI and MassAPI (the MJCF's mass); mounted
 objects stay static colliders. Each object has a physics material with the category's friction and the
 scene-graph relation as custom attributes ``rescene:instance``, ``rescene:label``, ``rescene:relation``,
-``rescene:parent``, ``rescene:confidence``, ``rescene:bodyKind``.
+``rescene:parent``, ``rescene:confidence``, ``rescene:bodyKind``. ``<node>`` is the object's name
+(rescene_core/export/names.py: an identifier, so every prim is a direct child of ``/World/Objects``); the
+label verbatim is also the prim's ``customData`` ``rescene:label`` and its ``displayName``.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ from rescene_core.export.physics_tables import SHELL_FRICTION
 from rescene_core.export.shell import shell_meshes
 from rescene_core.records import RoomShell, SceneGraph, parent_to_json
 
+LABEL_KEY = "rescene:label"
+"""Key path of an object prim's ``customData`` entry holding its label verbatim (``Usd.Prim.GetCustomDataByKey``)."""
 GRAVITY = 9.81
 """Magnitude of the PhysicsScene's gravity (m/s^2)."""
 
@@ -138,6 +142,10 @@ def write_usd(
         }
         for name, (kind, value) in attrs.items():
             prim.CreateAttribute(name, kind, custom=True).Set(value)
+        # the prim name is the label made an identifier (rescene_core/export/names.py); the label verbatim:
+        prim.SetCustomDataByKey(LABEL_KEY, obj.label)
+        if obj.label:
+            prim.SetDisplayName(obj.label)
     stage.GetRootLayer().Save()
     del stage
     tmp.replace(path)

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from rescene_core.export.names import node_name
 from rescene_core.geometry import sim3
 from rescene_core.records import RoomShell
 
@@ -165,11 +166,12 @@ def _triangles(points_world: NDArray, faces: NDArray, color: dict[str, float]) -
 
 
 def object_entity(obj: SceneObject, ns: int) -> dict[str, Any]:
-    """Entity ``obj_<id>_<label>``: world mesh as a triangle list plus its oriented bounding box as a cube."""
+    """Entity named like the object's export node (rescene_core/export/names.py): world mesh as a triangle
+    list plus its oriented bounding box as a cube."""
     m = np.asarray(obj.world_from_asset, dtype=np.float64)
     verts = np.asarray(obj.vertices, dtype=np.float64)
     world = verts @ m[:3, :3].T + m[:3, 3]
-    ent = _entity(f"obj_{obj.instance}_{obj.label}", ns, {"instance": str(obj.instance), "label": obj.label})
+    ent = _entity(node_name(obj.instance, obj.label), ns, {"instance": str(obj.instance), "label": obj.label})
     color = _color(obj.instance)
     if len(verts) and len(obj.faces):
         ent["triangles"].append(_triangles(world, obj.faces, color))
