@@ -380,7 +380,14 @@ class GeometricConfig(_Section):
     """An instance touches the floor when its lowest visible points are this close (m).
     Default: the project's choice."""
     support_tol: float = 0.06
-    """Largest gap between a child's bottom and a support surface beneath it (m). Default: the project's choice."""
+    """Height tolerance of a contact between a child's bottom and a support's upward surface (m): the surface
+    may lie this far above the child's bottom (depth noise), and a support that does not reach further down
+    than this below the child's bottom must not rise above it beside the child. Default: the project's choice."""
+    support_gap: float = 0.06
+    """Most free space between a child's bottom and the support surface under it for a rests-on answer (m):
+    rests-on is contact, so a child whose bottom is further above an object's top (a wall cabinet 0.6 m above
+    a cup) does not rest on it, in the per-frame rules and in fusion's support prior. The paper is silent.
+    Default: the project's choice (the contact tolerance support_tol)."""
     support_radius: float = 0.10
     """Horizontal radius within which a support-surface point counts as under a child point (m).
     Default: the project's choice."""
