@@ -592,6 +592,12 @@ class AttachmentConfig(_Section):
     Default: the project's choice."""
     containment_tolerance: float = 0.01
     """A footprint this far (m) beyond the floor polygon still counts as inside. Default: the project's choice."""
+    max_correction_m: float | None = 0.5
+    """Largest horizontal move (m) the attachment gives an object of its own (beyond where its parent's moves
+    carry it), over all its corrections, unless it is in collision (depenetration is not bounded); a longer
+    move is cut to this length and its operation says so (``bound_clipped``). Vertical contact closure keeps
+    its own limits (max_floor_snap, max_support_snap). None: unbounded. The paper is silent.
+    Default: the project's choice (an object seen where it stands is not carried across the room)."""
     completion_min_excess: float | None = None
     """Generated assets: a crossing of a wall or of the floor polygon deeper than this (m), with the object's
     centre inside, is read as a completion error and left alone; a shallower one is a pose or size error
