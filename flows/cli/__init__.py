@@ -180,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("synth", help="generate a synthetic capture with ground truth")
     p.add_argument("out", type=Path, help="output capture, e.g. room.zarr")
-    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered", "egocentric"])
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--overwrite", action="store_true", help="replace an existing capture")
     p.set_defaults(func=_cmd_synth)
@@ -221,8 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--preset",
         default="standard",
-        choices=["tiny", "standard", "cluttered", "all"],
-        help="synthetic preset (all: every preset the suite measures; assembly only)",
+        choices=["tiny", "standard", "cluttered", "egocentric", "all"],
+        help="synthetic preset (all: standard and cluttered, in the assembly and sim suites)",
     )
     p.add_argument("--list", action="store_true", help="list the suites")
     p.set_defaults(func=_cmd_bench)

@@ -5,7 +5,8 @@ relations, room shell). Starting poses:
   gt-perturbed: ground-truth poses perturbed the way reconstructions fail (floating, sunk into the floor,
       tilted, pushed through a wall, pushed into a neighbour; every object also gets a little registration
       noise), seeded per scene.
-  registration: the real pipeline on captures of ``--preset`` (``all``: standard and cluttered;
+  registration: the real pipeline on captures of ``--preset`` (``all``: standard and cluttered; a preset
+      of ``EXTRA_PRESETS`` such as egocentric is run only when named, and then from gt-perturbed poses too;
       ``write_synth``, then ``rescene run``; completed captures and run directories under WORK/captures
       and WORK/runs are reused): the registered poses of the run's generated assets, attached again here
       stage by stage. Errors are bounding-box centres of the placed generated meshes against the
@@ -39,6 +40,9 @@ from rescene_core.records import Edge, InstanceId, RoomShell, Root, SceneGraph
 
 STAGES = ("none", "relations", "repair", "full")
 PRESETS = ("standard", "cluttered")
+"""What ``--preset all`` measures, and the gt-perturbed start of every run."""
+EXTRA_PRESETS = ("egocentric",)
+"""Presets measured only when named (``--preset egocentric``): both starts, besides the gt-perturbed ones above."""
 METRICS = (
     "oob_rate",
     "collision_pairs",
@@ -303,11 +307,14 @@ def draw_plan(path: Path, shell: RoomShell, objects: dict, panels: dict[str, dic
 
 def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
     """Run the suite on both presets from gt-perturbed poses; from registration poses on ``preset`` (``all``:
-    both presets; the registration start runs the whole pipeline on each capture once, cached in ``work_dir``)."""
+    both presets; the registration start runs the whole pipeline on each capture once, cached in ``work_dir``).
+    A preset of ``EXTRA_PRESETS`` is measured from both starts as well."""
     work_dir = Path(work_dir)
-    registration_presets = PRESETS if preset == "all" else (preset if preset in PRESETS else "standard",)
+    selectable = PRESETS + EXTRA_PRESETS
+    registration_presets = PRESETS if preset == "all" else (preset if preset in selectable else "standard",)
+    gt_presets = PRESETS + ((preset,) if preset in EXTRA_PRESETS else ())
     scenes = []
-    for name in PRESETS:
+    for name in gt_presets:
         for seed in seeds:
             gt_objects, graph, shell, source = ground_truth_layout(name, seed)
             # the solver resolves the wall root itself: the graph names no concrete wall
@@ -346,7 +353,7 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
                 }
                 draw_plan(work_dir / "plans" / f"{name}_{seed}.png", shell, start_objects, panels)
     summary = {}
-    for name in PRESETS:
+    for name in gt_presets:
         rows = [s for s in scenes if s["preset"] == name]
         summary[name] = {stage: {k: _mean([r["stages"][stage][k] for r in rows]) for k in METRICS} for stage in STAGES}
         summary[name]["full"]["seconds_max"] = max(r["stages"]["full"]["seconds"] for r in rows)

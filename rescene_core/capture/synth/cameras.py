@@ -1,5 +1,9 @@
-"""The camera walk of a synthetic capture: a loop through the room's free space at 1.3-1.7 m looking
-across the room, close-ups that crop large objects, and distant views from the corners."""
+"""The camera walks of a synthetic capture.
+
+'walk': a loop through the room's free space at 1.3-1.7 m looking across the room, close-ups that crop
+large objects, and distant views from the corners. 'head': a head-mounted camera (``plan_head_cameras``)
+walking the kitchen side of an egocentric room, looking down at the island and the worktops.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +15,7 @@ from shapely.geometry import LineString, Point
 from shapely.ops import unary_union
 from shapely.prepared import prep
 
+from rescene_core.capture.synth.kitchen import KitchenLayout
 from rescene_core.capture.synth.layout import Layout
 from rescene_core.capture.synth.presets import SynthPreset
 from rescene_core.geometry.camera import intrinsics_from_fov, look_at
@@ -74,6 +79,10 @@ def _waypoint_loop(free, rng: np.random.Generator, spacing: float = 0.25, count:
 
 def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> CameraPlan:
     """Plan ``preset.frames`` cameras over the furnished room (see module docstring)."""
+    if preset.camera == "head":
+        return plan_head_cameras(lay, preset, rng)
+    if preset.camera != "walk":
+        raise ValueError(f"unknown camera walk {preset.camera!r}; choose 'walk' or 'head'")
     room = lay.room
     n = preset.frames
     n_close = int(round(n * preset.closeup_fraction))
@@ -181,3 +190,114 @@ def plan_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> 
         kinds=tuple(kinds[i] for i in order),
         target_object=tuple(targets[i] for i in order),
     )
+
+
+def _head_path(lay: KitchenLayout, rng: np.random.Generator) -> LineString:
+    """Where the wearer walks: along the aisle between the worktops and the island, round one end of the
+    island, and part way along its back; waypoints that fall outside the room or inside furniture are dropped."""
+    p0, u, n = lay.kitchen_axes()
+    depth = max(c.model.size[1] for c in lay.counters)
+    if lay.island is None:
+        s_mid = float(np.mean([(c.world_from_object[:2, 3] - p0) @ u for c in lay.counters]))
+        half = sum(c.model.size[0] for c in lay.counters) / 2
+        local = [(s_mid - half * 0.8, depth + 0.6), (s_mid + half * 0.8, depth + 0.6), (s_mid, depth + 1.3)]
+    else:
+        centre = lay.island.world_from_object[:2, 3] - p0
+        s_i, t_i = float(centre @ u), float(centre @ n)
+        a, b = lay.island.model.size[0] / 2, lay.island.model.size[1] / 2
+        t_aisle = (depth + t_i - b) / 2
+        t_back = t_i + b + 0.75
+        side = 1.0 if rng.uniform() < 0.5 else -1.0
+        local = [
+            (s_i - side * a * 0.9, t_aisle),
+            (s_i + side * a * 0.6, t_aisle),
+            (s_i + side * (a + 0.55), (t_aisle + t_i) / 2),
+            (s_i + side * (a + 0.55), t_i + b * 0.5),
+            (s_i + side * a * 0.5, t_back),
+            (s_i - side * a * float(rng.uniform(0.0, 0.5)), t_back),
+        ]
+    inner = prep(lay.room.polygon.buffer(-0.3))
+    points = []
+    for s_, t_ in local:
+        xy = p0 + u * s_ + n * t_
+        if inner.contains(Point(xy[0], xy[1])) and not _inside_object(lay, np.array([xy[0], xy[1], 1.5]), 0.1):
+            points.append(tuple(xy))
+    if len(points) < 2:
+        raise ValueError(f"the head-mounted walk found {len(points)} free waypoints by the kitchen; need 2")
+    return LineString(points)
+
+
+def _attention_point(
+    lay: KitchenLayout, eye: NDArray, face_yaw: float, preset: SynthPreset, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """A point the wearer looks at from ``eye``: on the island's or a worktop's top, within the allowed turn
+    from facing the kitchen wall and at least 0.3 m away; ahead at worktop height when none is."""
+    limit = np.radians(preset.head_yaw_deg)
+    options = []
+    for _ in range(16):
+        host = lay.work_surfaces[int(rng.integers(len(lay.work_surfaces)))]
+        sup = host.model.supports[0]
+        local = np.array([rng.uniform(sup.x0, sup.x1), rng.uniform(sup.y0, sup.y1), sup.z, 1.0])
+        p = (host.world_from_object @ local)[:3]
+        d = p[:2] - eye[:2]
+        turn = np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - face_yaw)))
+        if np.linalg.norm(d) >= 0.3 and abs(turn) <= limit:
+            options.append(p)
+    if options:
+        return options[int(rng.integers(len(options)))]
+    worktop = float(lay.counters[0].z1)
+    return np.array([eye[0] + np.cos(face_yaw), eye[1] + np.sin(face_yaw), worktop])
+
+
+def plan_head_cameras(lay: Layout, preset: SynthPreset, rng: np.random.Generator) -> CameraPlan:
+    """A head-mounted camera walking the kitchen side of an egocentric room (``kitchen.KitchenLayout``).
+
+    The wearer walks ``_head_path`` once at an eye height drawn in ``preset.walk_height`` (with a 2 cm bob),
+    and looks at points on the island and the worktops for 5-12 frames each, turning between them over 4
+    frames. The view turns at most ``head_yaw_deg`` from facing the kitchen wall (the wall behind is never
+    seen), its pitch below the horizon is kept in ``head_pitch_deg`` and it rolls slowly, at most
+    ``head_roll_deg``. Every frame is kind 'head'.
+    """
+    if not isinstance(lay, KitchenLayout) or not lay.counters:
+        raise ValueError("the 'head' camera walk needs the egocentric program's kitchen (program='egocentric')")
+    n = preset.frames
+    path = _head_path(lay, rng)
+    _, _, normal = lay.kitchen_axes()
+    face_yaw = float(np.arctan2(-normal[1], -normal[0]))
+    steps = np.cumsum(rng.uniform(0.6, 1.4, n))
+    along = (steps - steps[0]) / max(steps[-1] - steps[0], 1e-9)
+    eye_height = float(rng.uniform(*preset.walk_height))
+    bob_phase, roll_phase = rng.uniform(0, 2 * np.pi, 2)
+    roll_amp = float(rng.uniform(0.3, 0.8)) * preset.head_roll_deg
+    roll_period = float(rng.uniform(20, 40))
+    lo, hi = preset.head_pitch_deg
+    poses = []
+    target = previous = None
+    switch, turned = 0, 0
+    for k in range(n):
+        xy = np.array(path.interpolate(float(along[k]), normalized=True).coords[0]) + rng.normal(0, 0.02, 2)
+        h = float(np.clip(eye_height + 0.02 * np.sin(2 * np.pi * k / 6 + bob_phase), *preset.walk_height))
+        eye = np.array([xy[0], xy[1], h])
+        if k == switch:
+            previous = target
+            target = _attention_point(lay, eye, face_yaw, preset, rng)
+            switch, turned = k + int(rng.integers(5, 13)), 0
+        assert target is not None
+        w = min(1.0, (turned + 1) / 4)
+        turned += 1
+        look = target if previous is None else (1 - w) * previous + w * target
+        d = look - eye
+        turn = np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - face_yaw)))
+        yaw = face_yaw + float(np.clip(turn, -np.radians(preset.head_yaw_deg), np.radians(preset.head_yaw_deg)))
+        down = np.degrees(np.arctan2(-d[2], max(float(np.linalg.norm(d[:2])), 1e-6)))
+        pitch = np.radians(float(np.clip(down + rng.normal(0, 2.0), lo, hi)))
+        roll = float(
+            np.clip(
+                roll_amp * np.sin(2 * np.pi * k / roll_period + roll_phase) + rng.normal(0, 1.5),
+                -preset.head_roll_deg,
+                preset.head_roll_deg,
+            )
+        )
+        fwd = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
+        poses.append(look_at(eye, eye + fwd, np.radians(roll), strict=False))
+    return CameraPlan(world_from_cam=np.stack(poses), K=intrinsics(preset), kinds=("head",) * n, target_object=(0,) * n)

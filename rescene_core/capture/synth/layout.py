@@ -374,6 +374,10 @@ def build(name: str, rng: np.random.Generator) -> ObjectModel:
 
 def furnish(room: Room, preset: SynthPreset, rng: np.random.Generator) -> Layout:
     """Run the preset's placement program; stops at a number of objects drawn from ``preset.objects``."""
+    if preset.program == "egocentric":
+        from rescene_core.capture.synth.kitchen import furnish_kitchen  # it builds on this module
+
+        return furnish_kitchen(room, preset, rng)
     lay = Layout(room, preset, rng)
     lay.door = None
     lay.add_door()

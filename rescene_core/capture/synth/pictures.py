@@ -161,12 +161,12 @@ def plan_figure(scene, path: Path) -> None:
             )
     cams = scene.plan.world_from_cam
     kinds = scene.plan.kinds
-    walk = np.array([cams[t][:2, 3] for t in range(len(kinds)) if kinds[t] == "walk"])
+    walk = np.array([cams[t][:2, 3] for t in range(len(kinds)) if kinds[t] in ("walk", "head")])
     if len(walk):
         ax.plot(walk[:, 0], walk[:, 1], "-", color="0.5", lw=0.6, zorder=12)
     for t in range(len(kinds)):
         p, fwd = cams[t][:2, 3], cams[t][:2, 2]
-        color = {"walk": "0.35", "closeup": "tab:orange", "distant": "tab:purple"}[kinds[t]]
+        color = {"walk": "0.35", "closeup": "tab:orange", "distant": "tab:purple", "head": "tab:cyan"}[kinds[t]]
         ax.annotate("", p + fwd * 0.25, p, arrowprops=dict(arrowstyle="-|>", color=color, lw=0.6), zorder=12)
     handles = [plt.Line2D([], [], color=color_of[lab], marker="s", ls="", ms=8, label=lab) for lab in labels]
     handles += [
@@ -177,6 +177,8 @@ def plan_figure(scene, path: Path) -> None:
         plt.Line2D([], [], color="tab:purple", label="distant camera"),
         plt.Line2D([], [], color="0.35", label="walk camera"),
     ]
+    if "head" in kinds:
+        handles.append(plt.Line2D([], [], color="tab:cyan", label="head-mounted camera"))
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     ax.set_aspect("equal")
     x0, y0 = floor.min(0) - 0.3

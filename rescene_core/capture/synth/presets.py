@@ -24,7 +24,8 @@ class SynthPreset(BaseModel):
     objects: tuple[int, int] = (20, 25)
     """Fewest and most objects placed (the generator stops at a number drawn from this range)."""
     program: str = "furnished"
-    """Which placement program runs: 'tiny' (desk corner), 'furnished', 'cluttered' (more and stacked)."""
+    """Which placement program runs: 'tiny' (desk corner), 'furnished', 'cluttered' (more and stacked),
+    'egocentric' (a kitchen with an island and a living corner, ``capture.synth.kitchen``)."""
     contact_gap: float = 0.001
     """Gap left between touching surfaces (m): resting objects, backs against walls."""
     furniture_clearance: float = 0.04
@@ -46,6 +47,15 @@ class SynthPreset(BaseModel):
     """Camera height range of the walk (m)."""
     closeup_distance: tuple[float, float] = (0.35, 0.7)
     """Distance of close-up cameras from the object surface they look at (m)."""
+    camera: str = "walk"
+    """Which camera walk: 'walk' (the loop above, close-ups, distant views) or 'head' (a head-mounted camera
+    at ``walk_height`` walking one side of the room, looking down at its work surfaces; egocentric program)."""
+    head_pitch_deg: tuple[float, float] = (20.0, 60.0)
+    """'head' walk: range of the camera's pitch below the horizon (deg)."""
+    head_roll_deg: float = 15.0
+    """'head' walk: largest roll of the camera about its viewing axis (deg)."""
+    head_yaw_deg: float = 45.0
+    """'head' walk: largest turn of the view away from facing the kitchen wall (deg); the wall behind is never seen."""
     # rendering
     shadows: bool = True
     """Cast shadows from the ceiling light."""
@@ -92,10 +102,22 @@ class SynthPreset(BaseModel):
     max_points_per_instance: int = 12000
     """Largest point cloud kept per instance; larger ones are subsampled at random (seeded)."""
 
+    def settings(self) -> dict:
+        """The fields as JSON values, for the capture's attrs; the 'head' walk's fields only when it is used
+        (so the captures of the presets that predate them keep their exact attrs)."""
+        out = self.model_dump(mode="json")
+        if self.camera != "head":
+            for key in HEAD_FIELDS:
+                del out[key]
+        return out
+
     def with_overrides(self, **overrides) -> SynthPreset:
         """A copy with some fields replaced (validated)."""
         return SynthPreset.model_validate({**self.model_dump(), **overrides})
 
+
+HEAD_FIELDS = ("camera", "head_pitch_deg", "head_roll_deg", "head_yaw_deg")
+"""Fields of the head-mounted walk (``SynthPreset.settings`` leaves them out of other walks' attrs)."""
 
 PRESETS: dict[str, SynthPreset] = {
     "tiny": SynthPreset(
@@ -130,8 +152,28 @@ PRESETS: dict[str, SynthPreset] = {
         miss_small_prob=0.3,
         wrong_label_prob=0.08,
     ),
+    "egocentric": SynthPreset(
+        name="egocentric",
+        room_shapes=("rect",),
+        room_width=(5.2, 6.4),
+        room_depth=(4.2, 5.2),
+        ceiling=(2.5, 2.8),
+        objects=(26, 32),
+        program="egocentric",
+        width=480,
+        height=360,
+        hfov_deg=80.0,
+        frames=72,
+        closeup_fraction=0.0,
+        distant_fraction=0.0,
+        walk_height=(1.5, 1.8),
+        camera="head",
+        miss_small_prob=0.15,
+        small_size=0.2,
+    ),
 }
-"""The named presets: tiny (tests), standard (demo, benchmarks), cluttered (stress)."""
+"""The named presets: tiny (tests), standard (demo, benchmarks), cluttered (stress), egocentric (a kitchen
+walked by a head-mounted camera looking down: partial views, raised supports seen from above)."""
 
 
 def get_preset(preset: str | SynthPreset, **overrides) -> SynthPreset:

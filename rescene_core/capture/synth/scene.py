@@ -363,7 +363,7 @@ def _assemble(
             "synth": {
                 "preset": cfg.name,
                 "seed": int(seed),
-                "settings": cfg.model_dump(mode="json"),
+                "settings": cfg.settings(),
                 "frame_kinds": list(plan.kinds),
                 "closeup_object": [int(v) for v in plan.target_object],
                 "events": errors.events,
