@@ -30,9 +30,11 @@ from rescene_core.manifest import asset_cell, final_message, instance_row, now_i
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.runlog import Segment
+from rescene_core.stages.common import keyframes_of
+from rescene_core.stages.execution import capture_ref
 from tasks import instance as instance_tasks
 from tasks import scene as scene_tasks
-from tasks.common import capture_ref, retry_delays
+from tasks.common import retry_delays
 from tasks.run import failure_reason, finish_run, instance_outcome, state_row, write_run_config
 
 ProgressListener = Callable[[int, int, dict[str, Any]], None]
@@ -74,7 +76,7 @@ def rescene(
         data = st.result(raise_on_failure=False)
         return (Completed if st.is_completed() else Failed)(message=st.message, data=data)
     config = config or RunConfig()
-    export_config = config.export
+    walls = (config.export.wall_height, config.export.wall_thickness)  # how the run log draws the walls
     logger = get_run_logger()
     run = RunPaths(Path(run_dir).resolve())
     run.root.mkdir(parents=True, exist_ok=True)
@@ -125,7 +127,7 @@ def rescene(
             view_refs = []
         assets = asset_t.map(rd, cr, view_refs, unmapped(config.assets))
         poses = pose_t.map(rd, cr, assets, unmapped(config.registration))
-        frames = scene_tasks.keyframes_of(keyframes_f.result())
+        frames = keyframes_of(keyframes_f.result())
         preds = relations_t.map(rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph))
 
         # fan-in of the instances, reporting progress as each one finishes
@@ -162,7 +164,7 @@ def rescene(
         ok_assets = [by_instance[i]["asset"].result() for i in ids if by_instance[i]["asset"] is not None]
         all_missing = sorted(failures + missing, key=lambda m: m.instance)
 
-        snapshot_f = snapshot_t.submit(str(run.root), capture_in, shell_f, ok_assets, ok_poses, export_config)
+        snapshot_f = snapshot_t.submit(str(run.root), capture_in, shell_f, ok_assets, ok_poses, *walls)
         wait(list(preds))
         ok_preds = []
         for frame, fut in zip(frames, preds):
@@ -174,10 +176,10 @@ def rescene(
                 frame_failures.append(f"key frame {frame} ({fut.state.message})")
         graph_f = fusion_t.submit(str(run.root), capture_in, shell_f, ok_preds, all_missing, config.scenegraph)
         layout_f = attach_t.submit(
-            str(run.root), capture_in, shell_f, graph_f, ok_assets, ok_poses, config.attachment, export_config
+            str(run.root), capture_in, shell_f, graph_f, ok_assets, ok_poses, config.attachment, *walls
         )
         scene_f = export_t.submit(
-            str(run.root), capture_in, shell_f, graph_f, layout_f, ok_assets, ok_poses, all_missing, export_config
+            str(run.root), capture_in, shell_f, graph_f, layout_f, ok_assets, ok_poses, all_missing, config.export
         )
         scene_level = [(Stage.SHELL, shell_f), (Stage.KEYFRAMES, keyframes_f), (Stage.SNAPSHOT, snapshot_f)]
         scene_level += [(Stage.FUSION, graph_f), (Stage.ATTACHMENT, layout_f), (Stage.EXPORT, scene_f)]

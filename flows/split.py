@@ -36,7 +36,7 @@ from rescene_core.capture.identity import capture_identity
 from rescene_core.config import RunConfig
 from rescene_core.io import read_json, write_bytes_atomic
 from rescene_core.paths import RunPaths
-from tasks.stages import STAGE_MODULES, code_version
+from rescene_core.stages.dag import code_versions
 
 
 class SplitFileError(ValueError):
@@ -97,7 +97,7 @@ def done_reason(run_dir: Path, capture_sha256: str, config: RunConfig) -> str | 
     hashes = {s: config.section_hash(s) for s in RunConfig.model_fields}
     if m.get("config_hashes") != hashes:
         return "config changed"
-    versions = {str(s): code_version(s) for s in STAGE_MODULES}
+    versions = {str(s): v for s, v in code_versions().items()}
     if (m.get("code_version") or {}).get("stages") != versions:
         return "code changed"
     return None

@@ -1,133 +1,148 @@
 """The whole pipeline in this process, stage after stage, no orchestration: a notebook's entry point and
 the reference the pipeline benchmark compares the Prefect flow with.
 
-Same stages and order as the flow ``rescene`` (flows/scene.py): room shell, view selection, per instance
-asset generation and registration, key frames, relations per key frame, fusion, attachment, export and,
-when the capture has ground truth, evaluation. Nothing is cached and no run log is written; the export
-and the evaluation go to ``out_dir`` (a temporary directory when none is given).
+It runs ``rescene_core.stages.dag.DAG``, the same stage bodies in the same order as the flow ``rescene``
+(flows/scene.py), physics check and evaluation included, and writes the same files under ``out_dir``
+(a temporary directory when none is given): instances/, shell.json, keyframes.json, scenegraph/,
+layout.json, scene/, sim/, eval/ and the run log. Nothing is cached and no manifest is written (those
+belong to the flow). An instance or key frame whose stage raises is left out with a Missing record, like
+the flow does; the others go on.
 """
 
 from __future__ import annotations
 
+import logging
 import tempfile
 import time
 from collections import defaultdict
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
-import numpy as np
-
-from rescene_core.assembly import AssemblyObject, attach
-from rescene_core.assets import generate_asset
 from rescene_core.capture import open_capture
-from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.config import RunConfig
-from rescene_core.evaluation import evaluate_run
-from rescene_core.export import ExportConfig, export_scene, placed_objects
-from rescene_core.hierview import select_keyframes, select_views
+from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
-from rescene_core.records import InstanceId, Layout, Missing, Pose, RoomShell, SceneGraph, Stage
-from rescene_core.registration import register
-from rescene_core.scenegraph import fuse, make_predictor, predict_frame
-from rescene_core.shell import estimate_shell
+from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
+from rescene_core.runlog import merge_segments
+from rescene_core.stages.common import keyframes_of
+from rescene_core.stages.dag import DAG, StageSpec
+from rescene_core.stages.execution import capture_ref
 
-T = TypeVar("T")
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
 class PipelineResult:
     """What one in-process run produced.
 
-    poses: the registered pose of every placed instance. layout: the attachment result (None when no
-    object was placed). missing: every instance left out, with the stage that left it out.
-    metrics: the evaluation (None without ground truth). seconds: wall seconds per stage.
+    run: the run directory. refs: each stage's result by its name in the DAG (``shell``, ``poses``...).
+    poses: the registered pose of every placed instance. layout: the attachment result.
+    missing: every instance left out, with the stage that left it out. metrics: eval/metrics.json.
+    seconds: wall seconds per stage.
     """
 
+    run: RunPaths
+    refs: dict[str, Any]
     shell: RoomShell
     poses: dict[InstanceId, Pose]
     graph: SceneGraph
-    layout: Layout | None
+    layout: Layout
     missing: tuple[Missing, ...]
     metrics: dict[str, Any] | None
     seconds: dict[Stage, float] = field(default_factory=dict)
 
 
+def _item_of(ref: Any) -> int:
+    """The instance (or key frame) a reference or a plain item stands for."""
+    return int(ref.instance) if isinstance(ref, Ref) else int(ref)
+
+
+def _run_over(spec: StageSpec, items: list[Any], kwargs: dict[str, Any], failed: list[Missing]) -> list[Ref]:
+    """The stage once per item; an item whose run raises is left out (a per-instance Missing in ``failed``,
+    a key frame logged), as the flow leaves out a task that failed after its retries."""
+    assert spec.over is not None
+    out = []
+    for item in items:
+        try:
+            out.append(spec.run(**kwargs, **{spec.over[1]: item}))
+        except Exception as err:  # noqa: BLE001 - one instance's failure must not lose the others' work
+            reason = f"{type(err).__name__}: {err}"
+            if spec.stage is Stage.RELATIONS:
+                log.warning("key frame %s left out of fusion: %s", item, reason)
+            else:
+                failed.append(Missing(InstanceId(_item_of(item)), spec.stage, reason))
+    return out
+
+
 def run_pipeline(
-    capture_path: str | Path,
-    config: RunConfig | None = None,
-    out_dir: str | Path | None = None,
-    export_config: ExportConfig | None = None,
+    capture_path: str | Path, config: RunConfig | None = None, out_dir: str | Path | None = None
 ) -> PipelineResult:
-    """Run every stage on ``capture_path`` in sequence; exports (and evaluation) under ``out_dir``."""
+    """Run every stage of the DAG on ``capture_path`` in sequence, writing the run under ``out_dir``."""
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="rescene-pipeline-") as tmp:
-            return run_pipeline(capture_path, config, tmp, export_config)
+            return run_pipeline(capture_path, config, tmp)
     config = config or RunConfig()
-    run = RunPaths(out_dir)
+    run = RunPaths(Path(out_dir).resolve())
+    run.root.mkdir(parents=True, exist_ok=True)
+    capture = capture_ref(capture_path)
+    cap = open_capture(capture.path, validate=False)
+    values: dict[str, Any] = {
+        "run_dir": str(run.root),
+        "capture": capture,
+        "instances": [int(i.id) for i in cap.object_instances],
+        "wall_height": config.export.wall_height,
+        "wall_thickness": config.export.wall_thickness,
+    }
+    failed: list[Missing] = []
     seconds: dict[Stage, float] = defaultdict(float)
-
-    def timed(stage: Stage, fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+    for spec in DAG:
+        if not spec.enabled(config):
+            values[spec.output] = None
+            continue
+        kwargs = {name: values[name] for name in spec.inputs if name in values}
+        if spec.config is not None:
+            kwargs["config"] = spec.config_section(config)
         start = time.perf_counter()
-        out = fn(*args, **kwargs)
-        seconds[stage] += time.perf_counter() - start
-        return out
+        if spec.over is None:
+            values[spec.output] = spec.run(**kwargs)
+        else:
+            kwargs.pop(spec.over[1], None)
+            values[spec.output] = _run_over(spec, values[spec.over[0]], kwargs, failed)
+        seconds[spec.stage] += time.perf_counter() - start
+        _gather(spec.stage, values, failed)
+    merge_segments(run.root)
+    return _result(run, values, failed, dict(seconds))
 
-    cap = open_capture(capture_path)
-    shell = timed(Stage.SHELL, estimate_shell, cap, config.shell)
-    ids = [int(i.id) for i in cap.object_instances]
-    views = timed(Stage.VIEW, select_views, cap, config.hierview, instance_ids=ids)
-    objects: dict[InstanceId, AssemblyObject] = {}
-    poses: dict[InstanceId, Pose] = {}
-    missing: list[Missing] = []
-    for i in ids:
-        view = views.get(i)
-        if view is None:
-            missing.append(Missing(InstanceId(i), Stage.VIEW, "view selection returned nothing for this instance"))
-            continue
-        if isinstance(view, Missing):
-            missing.append(view)
-            continue
-        asset = timed(Stage.ASSET, generate_asset, cap, view, config.assets)
-        if isinstance(asset, Missing):
-            missing.append(asset)
-            continue
-        pose = timed(Stage.REGISTRATION, register, asset, cap.point_cloud(i), config.registration)
-        if isinstance(pose, Missing):
-            missing.append(pose)
-            continue
-        poses[InstanceId(i)] = pose
-        objects[InstanceId(i)] = AssemblyObject(
-            instance=InstanceId(i),
-            label=cap.instance(i).label,
-            vertices=asset.vertices,
-            faces=asset.faces,
-            world_from_asset=pose.world_from_asset,
-            points=np.asarray(cap.point_cloud(i).points, np.float64),
-        )
-    keyframes = timed(Stage.KEYFRAMES, select_keyframes, cap, config.keyframes)
-    predictor = make_predictor(config.scenegraph)
-    predictions = [
-        timed(Stage.RELATIONS, predict_frame, cap, int(t), shell, config.scenegraph, predictor)
-        for t in keyframes.frames
-    ]
-    missing_ids = {int(m.instance) for m in missing}
-    graph = timed(Stage.FUSION, fuse, predictions, cap, shell, config.scenegraph, missing_ids)
-    layout = timed(Stage.ATTACHMENT, attach, objects, graph, shell, config.attachment) if objects else None
-    export_objects = placed_objects(objects.values(), layout)
-    layout_missing = list(layout.missing) if layout else []
-    timed(
-        Stage.EXPORT,
-        export_scene,
-        run.scene,
-        export_objects,
-        shell,
-        graph,
-        sorted(missing, key=lambda m: m.instance) + layout_missing,
-        export_config or ExportConfig(),
+
+def _gather(stage: Stage, values: dict[str, Any], failed: list[Missing]) -> None:
+    """The values the flow gathers between stages: after registration, the instances that finished (their
+    assets and poses) and every Missing one; after key-frame selection, the key frames."""
+    if stage is Stage.REGISTRATION:
+        posed = {_item_of(p) for p in values["poses"]}
+        values["assets"] = [a for a in values["assets"] if _item_of(a) in posed]
+        explicit = [p.missing for p in values["poses"] if p.missing is not None]
+        values["missing"] = sorted(failed + explicit, key=lambda m: m.instance)
+    elif stage is Stage.KEYFRAMES:
+        values["frames"] = keyframes_of(values["keyframes"])
+
+
+def _result(
+    run: RunPaths, values: dict[str, Any], failed: list[Missing], seconds: dict[Stage, float]
+) -> PipelineResult:
+    poses = {
+        InstanceId(_item_of(p)): Pose.from_json(read_json(run.root / p.path)["pose"]) for p in values["poses"] if p.ok
+    }
+    layout = Layout.from_json(read_json(run.layout))
+    metrics = read_json(run.metrics) if run.metrics.exists() else None
+    return PipelineResult(
+        run=run,
+        refs=values,
+        shell=RoomShell.from_json(read_json(run.shell)),
+        poses=poses,
+        graph=SceneGraph.from_json(read_json(run.graph)),
+        layout=layout,
+        missing=tuple(values["missing"]) + tuple(layout.missing),
+        metrics=metrics,
+        seconds=seconds,
     )
-    metrics = None
-    if read_ground_truth(cap) is not None:
-        metrics = timed(Stage.EVALUATION, evaluate_run, run.root, capture_path)
-    return PipelineResult(shell, poses, graph, layout, tuple(missing), metrics, dict(seconds))

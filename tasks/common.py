@@ -1,11 +1,10 @@
-"""What every ReScene task shares: references, the input-hash cache policy, retries and the run-log segment.
+"""What every ReScene task shares: the input-hash cache policy, retries and the shared VLM limit.
 
-A task's result is a ``rescene_core.records.Ref``: a frozen record naming the file it wrote under the
-run directory, that file's sha256, its status (OK or MISSING) and a few numbers. The cache key of a
-task run is built from ``Ref.cache_digest()`` of its input references, the hash of its config section
-and the code version of its stage (``tasks.stages.code_version``), so a changed input recomputes exactly
-what depends on it. Results are persisted as JSON (Prefect's JSON serializer writes the Ref's fields
-and its class name; no pickles) under ``RUN/.prefect/results``.
+A task runs one stage body (``rescene_core.stages``) and returns its ``Ref``. The cache key of a task run
+is built from ``Ref.cache_digest()`` of its input references, the hash of its config section and the code
+version of its stage (``rescene_core.stages.dag.code_version``: the import closure of the stage), so a
+changed input recomputes exactly what depends on it. Results are persisted as JSON (Prefect's JSON
+serializer writes the Ref's fields and its class name; no pickles) under ``RUN/.prefect/results``.
 """
 
 from __future__ import annotations
@@ -13,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -27,12 +25,9 @@ from prefect.context import TaskRunContext
 from pydantic import BaseModel
 
 from rescene_core import paths
-from rescene_core.capture.identity import CaptureChangedError, capture_identity
-from rescene_core.io import hash_file, write_json_atomic
-from rescene_core.paths import RunPaths
-from rescene_core.records import Missing, Ref, RefStatus, Stage
-from rescene_core.runlog import Segment
-from tasks.stages import code_version
+from rescene_core.records import Missing, Ref, Stage
+from rescene_core.stages.dag import code_version
+from rescene_core.stages.execution import BadInputError, TransientStageError
 
 RESULTS_DIR = Path(paths.RESULTS)
 """Persisted task results (JSON references) and cache records, relative to the run directory."""
@@ -44,19 +39,7 @@ RETRY_DELAY_ENV = "RESCENE_RETRY_DELAY_S"
 """Environment variable: base delay of the exponential retry backoff in seconds (default 2)."""
 
 
-# ---- errors --------------------------------------------------------------------------------------
-
-
-class TransientStageError(RuntimeError):
-    """A failure that may pass on its own (timeout, connection reset): retried with backoff."""
-
-    transient = True
-
-
-class BadInputError(ValueError):
-    """A failure caused by the input itself: retrying cannot help, so it is not retried."""
-
-    transient = False
+# ---- retries -------------------------------------------------------------------------------------
 
 
 def is_transient(exc: BaseException) -> bool:
@@ -87,57 +70,6 @@ def retry_delays(retries: int = RETRIES) -> list[float]:
 
 
 # ---- references and cache keys -------------------------------------------------------------------
-
-
-def make_ref(
-    run_dir: str | Path,
-    path: str | Path,
-    kind: str,
-    item: int | None = None,
-    numbers: dict[str, Any] | None = None,
-    missing: Missing | None = None,
-    detail: dict[str, Any] | None = None,
-) -> Ref:
-    """Reference to the file ``path`` (absolute, or relative to ``run_dir``) that a task wrote: its
-    run-relative path, sha256, status (MISSING when ``missing`` is given) and a few numbers."""
-    run = RunPaths(run_dir)
-    full = Path(path) if Path(path).is_absolute() else run.root / path
-    return Ref(
-        kind=kind,
-        path=run.rel(full),
-        sha256=hash_file(full),
-        item=None if item is None else int(item),
-        status=RefStatus.OK if missing is None else RefStatus.MISSING,
-        numbers=numbers or {},
-        missing=missing,
-        detail=detail or {},
-    )
-
-
-VERIFY_CAPTURE = ("stamp", "full")
-"""How a run establishes the capture's content hash: "stamp" (default: the identity stamped into the
-capture when it was written, checked by file sizes and by rehashing only files modified since) or
-"full" (every byte rehashed against the stamp). An unstamped capture is hashed whole either way."""
-
-
-def capture_ref(capture: str | Path, verify: str = "stamp") -> Ref:
-    """Reference to the capture (outside the run directory): absolute path and its content hash.
-
-    The hash is the capture's identity stamp (``rescene_core.capture.identity``), verified as ``verify``
-    says; ``detail`` records how (``verification``, ``rehashed_files``). Raises CaptureChangedError when
-    the capture changed in place since it was written."""
-    if verify not in VERIFY_CAPTURE:
-        raise ValueError(f"verify_capture={verify!r}: use one of {', '.join(VERIFY_CAPTURE)}")
-    path = Path(capture).resolve()
-    try:
-        ident = capture_identity(path, full=verify == "full")
-    except CaptureChangedError:
-        from rescene_core.capture import open_capture
-
-        open_capture(path)  # changed and also invalid: the list of its problems is the clearer error
-        raise
-    detail = {"verification": ident.verification, "rehashed_files": ident.rehashed_files}
-    return Ref(kind="capture", path=str(path), sha256=ident.content_hash, detail=detail)
 
 
 def digest(value: Any) -> Any:
@@ -244,77 +176,3 @@ def vlm_slot(base_url: str) -> Iterator[None]:
             raise
     else:
         ctx.__exit__(None, None, None)
-
-
-# ---- execution: run-log segment, fault injection -------------------------------------------------
-
-
-def segment_name(stage: Stage, item: int | None) -> str:
-    return stage if item is None else f"{stage}-{int(item):06d}"
-
-
-@contextmanager
-def executing(run_dir: str | Path, stage: Stage, item: int | None = None) -> Iterator[Segment]:
-    """Context of one task execution: yields its run-log segment (replacing any earlier one), logs
-    start/end/error events with the elapsed seconds, applies injected faults, writes the segment."""
-    seg = Segment(Path(run_dir), segment_name(stage, item))
-    start = time.perf_counter()
-    pid = os.getpid()
-    seg.log(
-        "/task/events",
-        {"stage": stage, "item": item, "event": "start", "seconds": 0.0, "status": "running", "pid": pid},
-    )
-    try:
-        inject_fault(run_dir, stage, item)
-        yield seg
-    except BaseException as exc:
-        seg.log(
-            "/task/events",
-            {
-                "stage": stage,
-                "item": item,
-                "event": "error",
-                "seconds": time.perf_counter() - start,
-                "status": "failed",
-                "error": f"{type(exc).__name__}: {exc}",
-            },
-        )
-        seg.close()
-        raise
-    seg.log(
-        "/task/events",
-        {
-            "stage": stage,
-            "item": item,
-            "event": "end",
-            "seconds": time.perf_counter() - start,
-            "status": "ok",
-            "pid": pid,
-        },
-    )
-    seg.close()
-
-
-FAULTS_FILE = paths.FAULTS
-"""Fault injection for tests and drills: ``RUN/faults.json`` = [{"stage", "item", "kind", "times"}].
-
-kind "transient" raises TransientStageError (retried), "bad_input" raises BadInputError (not retried);
-each fault fires ``times`` times in all (counted in RUN/.faults/), then clears."""
-
-
-def inject_fault(run_dir: str | Path, stage: Stage, item: int | None) -> None:
-    run = RunPaths(run_dir)
-    path = run.faults
-    if not path.exists():
-        return
-    for fault in json.loads(path.read_text()):
-        if fault.get("stage") != stage or fault.get("item") != item:
-            continue
-        counter = run.fault_count(segment_name(stage, item))
-        fired = int(counter.read_text()) if counter.exists() else 0
-        if fired >= int(fault.get("times", 1)):
-            continue
-        write_json_atomic(counter, fired + 1)
-        kind = fault.get("kind", "transient")
-        message = f"injected {kind} fault in {stage} for item {item} ({fired + 1}/{fault.get('times', 1)})"
-        raise TransientStageError(message) if kind == "transient" else BadInputError(message)

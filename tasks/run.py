@@ -19,7 +19,7 @@ from rescene_core.manifest import build_manifest, render_report, write_instance_
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Ref, Stage
 from rescene_core.runlog import merge_segments
-from tasks.stages import STAGE_MODULES, code_version
+from rescene_core.stages.dag import code_versions
 
 _EXC_PREFIX = "Task run encountered an exception "
 
@@ -95,7 +95,7 @@ def finish_run(
         failed=failed,
         state=state,
         message=message,
-        stage_versions={s: code_version(s) for s in STAGE_MODULES},
+        stage_versions=code_versions(),
     )
     write_json_atomic(run.manifest, manifest)
     write_instance_table(run.instance_table, rows)

@@ -21,9 +21,9 @@ os.environ.setdefault("RESCENE_CACHE_DIR", tempfile.mkdtemp(prefix="rescene-cach
 
 @pytest.fixture
 def fake_stages(monkeypatch):
-    """Replace every stage library call in ``tasks.stages`` by the counting fakes of tests/flows/fakes.py
+    """Replace every stage library call in ``rescene_core.stages.calls`` by the counting fakes of tests/flows/fakes.py
     (flow tests under the Prefect test server, task tests through ``task.fn()``)."""
-    from tasks import stages
+    from rescene_core.stages import calls as stages
     from tests.flows import fakes
 
     for name, fn in fakes.STAGE_FAKES.items():

@@ -12,18 +12,15 @@ from rescene_core import pipeline
 from rescene_core.bench import pipeline as suite
 from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.runlog import Segment, merge_segments
+from rescene_core.stages import calls
+from rescene_core.stages.dag import DAG
 from tests.flows import fakes
 
 
 @pytest.fixture
-def fake_library(monkeypatch):
-    for name in ("estimate_shell", "select_keyframes", "generate_asset", "register", "make_predictor",
-                 "predict_frame", "fuse", "attach"):  # fmt: skip
-        monkeypatch.setattr(pipeline, name, getattr(fakes, name))
-    monkeypatch.setattr(pipeline, "select_views", lambda cap, config, instance_ids: fakes.select_views(
-        cap, config, instance_ids))  # fmt: skip
-    fakes.CALLS.clear()
-    return fakes.CALLS
+def fake_library(fake_stages):
+    """The stage doubles of tests/flows/fakes.py in ``rescene_core.stages.calls`` (the ``fake_stages`` fixture)."""
+    return fake_stages
 
 
 @pytest.fixture(scope="module")
@@ -35,21 +32,37 @@ def test_every_stage_runs_once_in_order_and_the_scene_is_exported(fake_library, 
     result = pipeline.run_pipeline(boxes, out_dir=tmp_path)
     assert dict(fake_library) == {"shell": 1, "view": 1, "asset": 3, "registration": 3, "keyframes": 1,
                                   "relations": 2, "fusion": 1, "attachment": 1}  # fmt: skip
-    assert sorted(result.poses) == [2, 3, 4] and result.missing == () and result.metrics is None
-    assert set(result.seconds) == {Stage.SHELL, Stage.VIEW, Stage.ASSET, Stage.REGISTRATION, Stage.KEYFRAMES,
-                                   Stage.RELATIONS, Stage.FUSION, Stage.ATTACHMENT, Stage.EXPORT}  # fmt: skip
+    assert sorted(result.poses) == [2, 3, 4] and result.missing == ()
+    assert set(result.seconds) == {s.stage for s in DAG}  # the physics check and the evaluation included
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert [o["instance"] for o in scene["objects"]] == [2, 3, 4]
+    assert (tmp_path / "sim" / "simcheck.json").exists() and result.metrics is not None
+    assert (tmp_path / "logs" / "run.mcap").exists()
 
 
 def test_a_missing_instance_is_left_out_and_reported(fake_library, boxes, monkeypatch, tmp_path):
-    monkeypatch.setattr(pipeline, "register", lambda asset, target, config: (
+    monkeypatch.setattr(calls, "register", lambda asset, target, config: (
         Missing(asset.instance, "registration", "gates") if asset.instance == 3 else fakes.register(
             asset, target, config)))  # fmt: skip
     result = pipeline.run_pipeline(boxes, out_dir=tmp_path)
     assert sorted(result.poses) == [2, 4]
     assert result.missing == (Missing(InstanceId(3), Stage.REGISTRATION, "gates"),)
     assert [e.child for e in result.graph.edges] == [2, 4]  # fusion was told
+
+
+def test_an_instance_that_raises_is_left_out_and_the_others_are_placed(fake_library, boxes, monkeypatch, tmp_path):
+    def register(asset, target, config):
+        if asset.instance == 4:
+            raise RuntimeError("registration diverged")
+        return fakes.register(asset, target, config)
+
+    monkeypatch.setattr(calls, "register", register)
+    result = pipeline.run_pipeline(boxes, out_dir=tmp_path)
+    assert sorted(result.poses) == [2, 3]
+    (miss,) = result.missing
+    assert (miss.instance, miss.stage) == (4, Stage.REGISTRATION) and "registration diverged" in miss.reason
+    scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
+    assert [o["instance"] for o in scene["objects"]] == [2, 3]
 
 
 class FakeHarness:

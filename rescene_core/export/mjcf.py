@@ -9,7 +9,7 @@ rescene_core/export/collision.py. Mass = bulk density of the category x the clos
 density is set so they carry exactly that mass. Friction per category.
 
 Names: a body, its geoms ``<node>/visual`` and ``<node>/col<k>``, its meshes and their files
-``meshes/<node>.stl``, ``meshes/<node>_col<k>.stl`` are named by the object's name (rescene_core/export/names.py,
+``meshes/<node>.stl``, ``meshes/<node>_col<k>.stl`` are named by the object's name (rescene_core/names.py,
 the glTF node's); the label verbatim is a ``<custom><text name="rescene:label:<node>">`` element
 (``mjcf_labels`` reads them back) and in scene.json.
 
@@ -28,12 +28,12 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from rescene_core.export.collision import Decomposition
-from rescene_core.export.names import MJCF_LABEL_TEXT
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
 from rescene_core.export.shell import floor_height, wall_boxes
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
+from rescene_core.names import MJCF_LABEL_TEXT
 from rescene_core.records import Relation, RoomShell, SceneGraph
 
 MESH_DIR = "meshes"

@@ -9,7 +9,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.export.names import node_name
+from rescene_core.names import node_name
 from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
 
 
@@ -35,7 +35,7 @@ class ExportObject:
 
     @property
     def node_name(self) -> str:
-        """The object's name in every export (rescene_core/export/names.py)."""
+        """The object's name in every export (rescene_core/names.py)."""
         return node_name(self.instance, self.label)
 
 

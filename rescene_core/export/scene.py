@@ -18,13 +18,13 @@ import trimesh
 
 from rescene_core.config import ExportConfig
 from rescene_core.export.gltf import ROOT_NODE, object_glb, scene_glb
-from rescene_core.export.names import check_unique
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
 from rescene_core.export.shell import shell_meshes
 from rescene_core.export.simulation import export_simulation
 from rescene_core.geometry import sim3
 from rescene_core.io import hash_file, hash_tree, read_json, write_bytes_atomic
+from rescene_core.names import check_unique
 from rescene_core.records import Completion, Missing, RoomShell, Root, SceneGraph, parent_to_json
 
 SCENE_FORMAT = "rescene-scene"
@@ -87,7 +87,7 @@ def export_scene(
     extra: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Write scene.glb (+Y up, see rescene_core/export/gltf.py), scene.json and objects/<node>.glb under
-    ``out_dir``; returns {file: sha256}. Node names come from rescene_core/export/names.py; the label is
+    ``out_dir``; returns {file: sha256}. Node names come from rescene_core/names.py; the label is
     kept verbatim in scene.json and the node's ``extras``.
 
     extra: additional top-level fields for scene.json (e.g. the capture and the backends that ran).

@@ -9,7 +9,7 @@ MeshCollisionAPI convexHull). Free objects get RigidBodyAPI and MassAPI (the MJC
 objects stay static colliders. Each object has a physics material with the category's friction and the
 scene-graph relation as custom attributes ``rescene:instance``, ``rescene:label``, ``rescene:relation``,
 ``rescene:parent``, ``rescene:confidence``, ``rescene:bodyKind``. ``<node>`` is the object's name
-(rescene_core/export/names.py: an identifier, so every prim is a direct child of ``/World/Objects``); the
+(rescene_core/names.py: an identifier, so every prim is a direct child of ``/World/Objects``); the
 label verbatim is also the prim's ``customData`` ``rescene:label`` and its ``displayName``.
 """
 
@@ -142,7 +142,7 @@ def write_usd(
         }
         for name, (kind, value) in attrs.items():
             prim.CreateAttribute(name, kind, custom=True).Set(value)
-        # the prim name is the label made an identifier (rescene_core/export/names.py); the label verbatim:
+        # the prim name is the label made an identifier (rescene_core/names.py); the label verbatim:
         prim.SetCustomDataByKey(LABEL_KEY, obj.label)
         if obj.label:
             prim.SetDisplayName(obj.label)

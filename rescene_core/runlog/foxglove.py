@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from rescene_core.export.names import node_name
 from rescene_core.geometry import sim3
+from rescene_core.names import node_name
 from rescene_core.records import RoomShell
 
 _VEC3 = {
@@ -166,7 +166,7 @@ def _triangles(points_world: NDArray, faces: NDArray, color: dict[str, float]) -
 
 
 def object_entity(obj: SceneObject, ns: int) -> dict[str, Any]:
-    """Entity named like the object's export node (rescene_core/export/names.py): world mesh as a triangle
+    """Entity named like the object's export node (rescene_core/names.py): world mesh as a triangle
     list plus its oriented bounding box as a cube."""
     m = np.asarray(obj.world_from_asset, dtype=np.float64)
     verts = np.asarray(obj.vertices, dtype=np.float64)

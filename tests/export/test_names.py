@@ -17,11 +17,11 @@ from rescene_core.evaluation.scene import load_scene
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.gltf import split_glb, validate_gltf
 from rescene_core.export.mjcf import mjcf_labels
-from rescene_core.export.names import MAX_SLUG_CHARS, check_unique, label_slug, node_name
 from rescene_core.export.scene import export_run
 from rescene_core.export.usd import LABEL_KEY, validate_usd
 from rescene_core.geometry import sim3
 from rescene_core.io import write_json_atomic
+from rescene_core.names import MAX_SLUG_CHARS, check_unique, label_slug, node_name
 from rescene_core.records import Asset, Edge, InstanceId, Layout, Plane, Relation, RoomShell, Root, SceneGraph
 from rescene_core.sim.check import simcheck_run
 from rescene_core.vqa import read_run

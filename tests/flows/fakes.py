@@ -1,4 +1,4 @@
-"""Test doubles for the stage libraries, substituted into ``tasks.stages`` by monkeypatching.
+"""Test doubles for the stage libraries, substituted into ``rescene_core.stages.calls`` by monkeypatching.
 
 They exist only to test the harness (caching, retries, fan-out, run log, export) independently of the
 stages; each one counts its calls in ``CALLS`` so tests can check what executed. Also a small hand-made

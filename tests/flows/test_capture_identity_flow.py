@@ -11,7 +11,8 @@ import pytest
 from rescene_core.capture.identity import CaptureChangedError
 from rescene_core.config import RunConfig
 from rescene_core.records import Ref, Stage
-from tasks.common import StageInputs, capture_ref
+from rescene_core.stages.execution import capture_ref
+from tasks.common import StageInputs
 
 
 def test_capture_ref_stamp_and_full(box_capture_path):

@@ -21,7 +21,7 @@ from tests.flows.prefect_server import prefect_cli as _cli
 SITECUSTOMIZE = """
 import os
 if os.environ.get("RESCENE_TEST_FAKE_STAGES"):
-    from tasks import stages
+    from rescene_core.stages import calls as stages
     from tests.flows import fakes
     for _name, _fn in fakes.STAGE_FAKES.items():
         setattr(stages, _name, _fn)

@@ -9,7 +9,7 @@ import pytest
 
 from rescene_core.config import RunConfig
 from rescene_core.runlog import read_messages
-from tasks.common import FAULTS_FILE
+from rescene_core.stages.execution import FAULTS_FILE
 
 
 def _run(capture, run_dir, config=None):
@@ -113,9 +113,7 @@ def test_transient_fault_is_retried(prefect_server, fake_stages, box_capture_pat
 
 
 def test_missing_stage_is_reported(prefect_server, box_capture_path, tmp_path, monkeypatch):
-    from tasks import stages
-
-    monkeypatch.setattr(stages, "STAGE_MODULES", {**stages.STAGE_MODULES})
+    from rescene_core.stages import calls as stages
 
     def unavailable(*args, **kwargs):
         raise stages.StageNotAvailable("shell", "rescene_core.shell")

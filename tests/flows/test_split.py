@@ -12,7 +12,7 @@ import pytest
 
 from flows.split import SplitFileError, done_reason, read_split, read_split_entries, scene_done
 from rescene_core.config import RunConfig
-from tasks.common import capture_ref
+from rescene_core.stages.execution import capture_ref
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -42,7 +42,7 @@ def test_example_split_reads():
 
 
 def test_done_reason(box_capture_path, tmp_path):
-    from tasks.stages import STAGE_MODULES, code_version
+    from rescene_core.stages.dag import code_versions
 
     run = tmp_path / "run"
     sha = capture_ref(box_capture_path).sha256
@@ -53,7 +53,7 @@ def test_done_reason(box_capture_path, tmp_path):
         "state": "Completed",
         "capture": {"sha256": sha},
         "config_hashes": {s: config.section_hash(s) for s in RunConfig.model_fields},
-        "code_version": {"stages": {str(s): code_version(s) for s in STAGE_MODULES}},
+        "code_version": {"stages": {str(s): v for s, v in code_versions().items()}},
     }
     (run / "manifest.json").write_text(json.dumps(manifest))
     assert done_reason(run, sha, config) is None and scene_done(run, box_capture_path)

@@ -9,6 +9,6 @@ import pytest
 
 @pytest.fixture
 def capture(box_capture_path):
-    from tasks.common import capture_ref
+    from rescene_core.stages.execution import capture_ref
 
     return capture_ref(box_capture_path)

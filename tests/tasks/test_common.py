@@ -11,15 +11,8 @@ from prefect.serializers import JSONSerializer
 from rescene_core.config import RegistrationConfig
 from rescene_core.io import hash_file
 from rescene_core.records import InstanceId, Missing, Ref, RefStatus, Stage
-from tasks.common import (
-    BadInputError,
-    StageInputs,
-    TransientStageError,
-    digest,
-    inject_fault,
-    is_transient,
-    make_ref,
-)
+from rescene_core.stages.execution import BadInputError, TransientStageError, inject_fault, make_ref
+from tasks.common import StageInputs, digest, is_transient
 
 
 def test_make_ref_names_the_file_by_its_run_relative_path_and_hash(tmp_path):

@@ -11,7 +11,7 @@ from rescene_core.config import AssetConfig, HierViewConfig, RegistrationConfig
 from rescene_core.io import hash_file
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, RefStatus, Stage
-from tasks import stages
+from rescene_core.stages import calls as stages
 from tasks.instance import generate_asset, register_instance, select_views
 
 
@@ -73,7 +73,7 @@ def test_library_missing_from_registration_is_recorded(fake_stages, capture, tmp
 
 
 def test_an_injected_bad_input_fault_raises_before_the_library(fake_stages, capture, tmp_path):
-    from tasks.common import BadInputError
+    from rescene_core.stages.execution import BadInputError
 
     (tmp_path / "faults.json").write_text(json.dumps([{"stage": "asset", "item": 2, "kind": "bad_input"}]))
     view = _views(tmp_path, capture)[0]

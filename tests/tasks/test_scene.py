@@ -22,10 +22,14 @@ from rescene_core.export import ExportConfig
 from rescene_core.io import hash_file
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Stage
+from rescene_core.stages import calls as stages
+from rescene_core.stages.common import keyframes_of
+from rescene_core.stages.execution import TransientStageError
 from tasks import scene as T
-from tasks import stages
-from tasks.common import TransientStageError
 from tasks.instance import generate_asset, register_instance, select_views
+
+WALLS = (ExportConfig().wall_height, ExportConfig().wall_thickness)
+"""How the run log draws the walls (height, thickness in m)."""
 
 
 @pytest.fixture
@@ -47,7 +51,7 @@ def test_validate_counts_frames_and_instances(capture):
 def test_validate_rejects_a_bad_capture(tmp_path):
     import zarr
 
-    from tasks.common import capture_ref
+    from rescene_core.stages.execution import capture_ref
     from tests.flows.fakes import box_capture
 
     path = box_capture(tmp_path / "bad.zarr")
@@ -62,7 +66,7 @@ def test_shell_and_keyframes(fake_stages, capture, tmp_path):
     assert shell.path == "shell.json" and shell.sha256 == hash_file(run.shell)
     assert shell.numbers["walls"] == 1 and shell.numbers["floor_area"] == pytest.approx(16.0)
     keyframes = T.select_keyframes.fn(str(tmp_path), capture, KeyFrameConfig())
-    assert T.keyframes_of(keyframes) == [0, 2] and keyframes.numbers == {"count": 2}
+    assert keyframes_of(keyframes) == [0, 2] and keyframes.numbers == {"count": 2}
     assert json.loads(run.keyframes.read_text())["frames"] == [0, 2]
 
 
@@ -99,11 +103,11 @@ def test_fusion_leaves_out_the_missing_instances(fake_stages, capture, tmp_path)
 def test_snapshot_attachment_export_evaluation(placed, capture, tmp_path):
     rd = str(tmp_path)
     shell, assets, poses = placed
-    snap = T.snapshot_registration.fn(rd, capture, shell, assets, poses, ExportConfig())
+    snap = T.snapshot_registration.fn(rd, capture, shell, assets, poses, *WALLS)
     assert snap.numbers == {"objects": 3} and snap.path == "logs/after_registration.json"
     preds = [T.predict_relations.fn(rd, capture, shell, t, SceneGraphConfig()) for t in (0, 2)]
     graph = T.fuse_graph.fn(rd, capture, shell, preds, [], SceneGraphConfig())
-    layout = T.attach_layout.fn(rd, capture, shell, graph, assets, poses, AttachmentConfig(), ExportConfig())
+    layout = T.attach_layout.fn(rd, capture, shell, graph, assets, poses, AttachmentConfig(), *WALLS)
     assert layout.path == "layout.json" and layout.numbers == {"objects": 3, "operations": 3, "missing": 0}
     missing = [Missing(InstanceId(9), Stage.ASSET, "no mesh")]
     scene = T.export.fn(rd, capture, shell, graph, layout, assets, poses, missing, ExportConfig())
@@ -120,5 +124,5 @@ def test_attachment_of_no_objects_does_not_call_the_library(fake_stages, capture
     rd = str(tmp_path)
     shell = T.estimate_shell.fn(rd, capture, ShellConfig())
     graph = T.fuse_graph.fn(rd, capture, shell, [], [], SceneGraphConfig())
-    layout = T.attach_layout.fn(rd, capture, shell, graph, [], [], AttachmentConfig(), ExportConfig())
+    layout = T.attach_layout.fn(rd, capture, shell, graph, [], [], AttachmentConfig(), *WALLS)
     assert layout.numbers == {"objects": 0, "operations": 0, "missing": 0} and fake_stages["attachment"] == 0

@@ -1,19 +1,14 @@
-"""The one place where the pipeline calls the stage libraries.
+"""The one place where the stage bodies call the stage libraries.
 
 Each function here forwards to one ``rescene_core`` stage function. The import happens at call time,
 so a stage whose library module is not part of this build raises ``StageNotAvailable`` naming the
 module, instead of the pipeline silently skipping or faking it. Tests substitute these functions
 (monkeypatching this module) to exercise caching, retries and fan-out on their own.
-
-``code_version(stage)`` hashes the library sources a stage depends on; it is part of every cache key,
-so editing a stage's code recomputes that stage and what follows it.
 """
 
 from __future__ import annotations
 
-import hashlib
 import importlib
-from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -47,36 +42,6 @@ if TYPE_CHECKING:  # the stage packages are imported when a stage runs, not when
     from rescene_core.hierview import KeyFrames
     from rescene_core.scenegraph import FramePrediction, FusionReport, RelationPredictor
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-
-STAGE_MODULES: dict[Stage, tuple[str, ...]] = {
-    Stage.VALIDATE: ("rescene_core.capture",),
-    Stage.SHELL: ("rescene_core.shell",),
-    Stage.VIEW: ("rescene_core.hierview",),
-    Stage.KEYFRAMES: ("rescene_core.hierview",),
-    Stage.ASSET: ("rescene_core.assets",),
-    Stage.REGISTRATION: ("rescene_core.registration", "rescene_core.assets"),
-    Stage.RELATIONS: ("rescene_core.scenegraph",),
-    Stage.FUSION: ("rescene_core.scenegraph",),
-    Stage.ATTACHMENT: ("rescene_core.assembly",),
-    Stage.SNAPSHOT: ("rescene_core.runlog",),
-    Stage.EXPORT: ("rescene_core.export",),
-    Stage.SIMCHECK: ("rescene_core.sim", "rescene_core.export"),
-    Stage.EVALUATION: ("rescene_core.evaluation",),
-}
-"""Stage -> library packages whose source makes up the stage's code version."""
-
-COMMON_SOURCES: tuple[str, ...] = (
-    "rescene_core/records.py",
-    "rescene_core/paths.py",
-    "rescene_core/io.py",
-    "rescene_core/geometry",
-    "rescene_core/capture/format.py",
-    "rescene_core/capture/validate.py",
-    "rescene_core/render",
-)
-"""Sources every stage depends on (records, run paths, geometry, capture reading, rendering)."""
-
 
 class StageNotAvailable(RuntimeError):
     """A stage's library module is not part of this build; the message names the module."""
@@ -99,27 +64,6 @@ def _load(stage: Stage, module: str, name: str) -> Any:
     if not hasattr(mod, name):
         raise StageNotAvailable(stage, f"{module}.{name}")
     return getattr(mod, name)
-
-
-def _hash_paths(paths: list[Path]) -> str:
-    h = hashlib.sha256()
-    for root in paths:
-        files = sorted(root.rglob("*.py")) if root.is_dir() else ([root] if root.exists() else [])
-        if not files:
-            h.update(f"absent:{root.relative_to(REPO_ROOT)}".encode())
-        for f in files:
-            h.update(str(f.relative_to(REPO_ROOT)).encode())
-            h.update(f.read_bytes())
-    return h.hexdigest()[:16]
-
-
-@cache
-def code_version(stage: Stage) -> str:
-    """Hash of the library sources of ``stage`` plus the common core (records, geometry, capture, render)."""
-    paths = [REPO_ROOT / p for p in COMMON_SOURCES]
-    paths += [REPO_ROOT / Path(*m.split(".")) for m in STAGE_MODULES[Stage(stage)]]
-    paths.append(REPO_ROOT / "tasks" / "stages.py")
-    return _hash_paths(paths)
 
 
 # ---- the stage calls: one library function each -------------------------------------------------

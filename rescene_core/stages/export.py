@@ -1,0 +1,43 @@
+"""Stage ``export``: the attached scene as scene/scene.glb, scene.usda, mjcf/scene.xml, scene.json and scene/objects/."""
+
+from __future__ import annotations
+
+from rescene_core.capture import open_capture
+from rescene_core.export import ExportConfig, export_scene, placed_objects
+from rescene_core.io import read_json
+from rescene_core.paths import RunPaths
+from rescene_core.records import Layout, Missing, Ref, SceneGraph, Stage
+from rescene_core.stages import common
+from rescene_core.stages.common import load_shell
+from rescene_core.stages.execution import executing, make_ref
+
+
+def run(
+    run_dir: str,
+    capture: Ref,
+    shell: Ref,
+    graph: Ref,
+    layout: Ref,
+    assets: list[Ref],
+    poses: list[Ref],
+    missing: list[Missing],
+    config: ExportConfig,
+) -> Ref:
+    """Every export of the layout; ``missing``: the instances left out before attachment (the layout adds its own)."""
+    run = RunPaths(run_dir)
+    with executing(run_dir, Stage.EXPORT) as seg:
+        cap = open_capture(capture.path, validate=False)
+        layout_rec = Layout.from_json(read_json(run.root / layout.path))
+        objects = placed_objects(common.placed_objects(run_dir, cap, assets, poses), layout_rec)
+        all_missing = list(missing) + list(layout_rec.missing)
+        hashes = export_scene(
+            run.scene,
+            objects,
+            load_shell(run_dir, shell),
+            SceneGraph.from_json(read_json(run.root / graph.path)),
+            all_missing,
+            config,
+            extra={"scene_id": cap.scene_id, "capture": capture.path, "capture_sha256": capture.sha256},
+        )
+        seg.log("/metrics", {"stage": Stage.EXPORT, "metrics": {"objects": len(objects), "files": len(hashes)}})
+        return make_ref(run_dir, run.scene_json, "scene", numbers={"objects": len(objects)}, detail={"files": hashes})
