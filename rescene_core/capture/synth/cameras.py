@@ -206,7 +206,7 @@ def _head_path(lay: KitchenLayout, rng: np.random.Generator) -> LineString:
         s_i, t_i = float(centre @ u), float(centre @ n)
         a, b = lay.island.model.size[0] / 2, lay.island.model.size[1] / 2
         t_aisle = (depth + t_i - b) / 2
-        t_back = t_i + b + 0.75
+        t_back = t_i + b + 0.55
         side = 1.0 if rng.uniform() < 0.5 else -1.0
         local = [
             (s_i - side * a * 0.9, t_aisle),
@@ -230,12 +230,16 @@ def _head_path(lay: KitchenLayout, rng: np.random.Generator) -> LineString:
 def _attention_point(
     lay: KitchenLayout, eye: NDArray, face_yaw: float, preset: SynthPreset, rng: np.random.Generator
 ) -> NDArray[np.float64]:
-    """A point the wearer looks at from ``eye``: on the island's or a worktop's top, within the allowed turn
-    from facing the kitchen wall and at least 0.3 m away; ahead at worktop height when none is."""
+    """A point the wearer looks at from ``eye``: on the top of the work surface nearest to the wearer (three
+    times in four, as one looks at what is at hand) or of any, within the allowed turn from facing the
+    kitchen wall and at least 0.3 m away, nearer points likelier (weight 1 / distance^2); ahead at worktop
+    height when none is."""
     limit = np.radians(preset.head_yaw_deg)
-    options = []
+    here = Point(eye[0], eye[1])
+    surfaces = sorted(lay.work_surfaces, key=lambda o: o.footprint.distance(here))
+    options, weights = [], []
     for _ in range(16):
-        host = lay.work_surfaces[int(rng.integers(len(lay.work_surfaces)))]
+        host = surfaces[0] if rng.uniform() < 0.75 else surfaces[int(rng.integers(len(surfaces)))]
         sup = host.model.supports[0]
         local = np.array([rng.uniform(sup.x0, sup.x1), rng.uniform(sup.y0, sup.y1), sup.z, 1.0])
         p = (host.world_from_object @ local)[:3]
@@ -243,8 +247,9 @@ def _attention_point(
         turn = np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - face_yaw)))
         if np.linalg.norm(d) >= 0.3 and abs(turn) <= limit:
             options.append(p)
+            weights.append(1.0 / float(d @ d))
     if options:
-        return options[int(rng.integers(len(options)))]
+        return options[int(rng.choice(len(options), p=np.asarray(weights) / sum(weights)))]
     worktop = float(lay.counters[0].z1)
     return np.array([eye[0] + np.cos(face_yaw), eye[1] + np.sin(face_yaw), worktop])
 

@@ -53,17 +53,22 @@ class KitchenLayout(Layout):
         """The island and the base units: the raised supports the walk attends to."""
         return ([self.island] if self.island is not None else []) + self.counters
 
-    def door_away_from(self, wall: WallPlane) -> None:
-        """A door on another wall than ``wall``, its swing area kept free of floor furniture."""
+    def door_away_from(self, wall: WallPlane, tries: int = 20) -> None:
+        """A door on another wall than ``wall`` whose swing area is clear of the furniture placed so far; the
+        area is kept free of the floor furniture placed later."""
         others = [w for w in self.room.walls if w.id != wall.id]
-        door_wall = others[int(self.rng.integers(len(others)))]
-        p0, u, n, length, _ = self._wall_frame(door_wall)
-        if length < 1.4:
-            return
-        s = float(self.rng.uniform(0.5, length - 0.5))
-        a, b = p0 + u * (s - 0.45), p0 + u * (s + 0.45)
-        self.keepout.append(Polygon([a, b, b + n * 0.9, a + n * 0.9]))
-        self.door = (door_wall.id, s)
+        for _ in range(tries):
+            door_wall = others[int(self.rng.integers(len(others)))]
+            p0, u, n, length, _ = self._wall_frame(door_wall)
+            if length < 1.4:
+                continue
+            s = float(self.rng.uniform(0.5, length - 0.5))
+            a, b = p0 + u * (s - 0.45), p0 + u * (s + 0.45)
+            swing = Polygon([a, b, b + n * 0.9, a + n * 0.9])
+            if not any(o.z0 < 0.05 and swing.intersects(o.footprint) for o in self.objects):
+                self.keepout.append(swing)
+                self.door = (door_wall.id, s)
+                return
 
     def kitchen_run(self, wall: WallPlane, widths: list[float], height: float, clearance: float) -> list[Placed]:
         """Base units side by side against ``wall`` (backs to it), 4 mm apart, at a random place along it."""
@@ -138,13 +143,11 @@ def furnish_kitchen(room: Room, preset: SynthPreset, rng: np.random.Generator) -
 
     longest = sorted(room.walls, key=lambda w: -float(np.linalg.norm(np.subtract(w.segment[1], w.segment[0]))))
     lay.kitchen_wall = longest[int(rng.integers(2))]
-    lay.door_away_from(lay.kitchen_wall)
     wall_len = float(np.linalg.norm(np.subtract(lay.kitchen_wall.segment[1], lay.kitchen_wall.segment[0])))
     run_len = min(float(rng.uniform(2.4, 3.6)), wall_len - 0.4)
     n_units = 3 if run_len > 2.6 else 2
-    cuts = np.sort(rng.uniform(0.25, 0.75, n_units - 1)) if n_units > 2 else np.array([rng.uniform(0.4, 0.6)])
-    bounds = np.concatenate([[0.0], cuts, [1.0]]) * run_len
-    widths = [float(b - a) for a, b in zip(bounds[:-1], bounds[1:])]
+    shares = rng.uniform(0.8, 1.2, n_units)
+    widths = [float(w) for w in shares / shares.sum() * run_len]
     worktop = float(rng.uniform(0.88, 0.92))
     gap = float(rng.uniform(*WALL_CABINET_GAP))
     lay.counters = lay.kitchen_run(lay.kitchen_wall, widths, worktop, gap - 0.02)
@@ -152,6 +155,7 @@ def furnish_kitchen(room: Room, preset: SynthPreset, rng: np.random.Generator) -
         raise RuntimeError(f"no room for a {run_len:.2f} m kitchen run on wall {lay.kitchen_wall.id}")
     lay.wall_cabinets = lay.wall_cabinets_over(lay.counters, worktop + gap)
     lay.island = lay.island_facing(lay.counters)
+    lay.door_away_from(lay.kitchen_wall)
     if lay.island is not None:
         lay.stools_at(lay.island, int(rng.integers(1, 4)))
 
