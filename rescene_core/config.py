@@ -641,33 +641,33 @@ class VqaConfig(_Section):
     seed: int = 0
     """Seed of every random choice (viewpoints, sampling of questions, order of choices).
     Default: the project's choice."""
-    per_category: int = Field(12, ge=0)
+    per_category: int = Field(default=12, ge=0)
     """Most questions kept per category (sampled with the seed from all unambiguous candidates).
     Default: the project's choice."""
-    num_choices: int = Field(4, ge=2)
+    num_choices: int = Field(default=4, ge=2)
     """Choices of a multiple-choice question (fewer when the scene has too few distinct answers).
     Default: the project's choice."""
 
     min_confidence: float = Field(default_factory=_low_confidence, ge=0.0, le=1.0)
     """Relations with a confidence below this are not asked about (default: SceneGraphConfig.fusion.low_confidence).
     Default: the paper's low-confidence threshold (Appendix 'Multi-Frame Fusion Details'), applied here by the project."""
-    distance_margin: float = Field(0.15, ge=0.0)
+    distance_margin: float = Field(default=0.15, ge=0.0)
     """Distance comparisons need |d1 - d2| >= this fraction of the larger distance. Default: the project's choice."""
-    height_margin: float = Field(0.15, ge=0.0)
+    height_margin: float = Field(default=0.15, ge=0.0)
     """'Which is higher' needs the centre heights to differ by at least this (m). Default: the project's choice."""
-    bearing_margin_deg: float = Field(8.0, ge=0.0)
+    bearing_margin_deg: float = Field(default=8.0, ge=0.0)
     """Left/right questions need the two objects' bearings from the camera to differ by this (degrees).
     Default: the project's choice."""
 
     distance_band_edges: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
     """Metric distance questions answer with a band between consecutive edges (m; 'less than' the first,
     'more than' the last). Default: the project's choice."""
-    distance_band_margin: float = Field(0.1, ge=0.0)
+    distance_band_margin: float = Field(default=0.1, ge=0.0)
     """A metric distance within this of a band edge is not asked about (m). Default: the project's choice."""
-    sector_margin_deg: float = Field(10.0, ge=0.0)
+    sector_margin_deg: float = Field(default=10.0, ge=0.0)
     """Direction questions (ahead/left/right/behind, which wall the camera faces) need the direction to be
     at least this far from a sector boundary (degrees). Default: the project's choice."""
-    visibility_margin: float = Field(2.0, ge=1.0)
+    visibility_margin: float = Field(default=2.0, ge=1.0)
     """Counting in a view needs every object of the label to cover either >= this times
     ``min_visible_pixels`` or < ``min_visible_pixels`` / this (objects near the threshold are ambiguous).
     Default: the project's choice."""
@@ -675,22 +675,22 @@ class VqaConfig(_Section):
     sampling: Literal["target", "walk"] = "target"
     """How views are taken: 'target' samples one viewpoint per target object; 'walk' is the paper's agent,
     a capture after every discrete action of an egocentric walk. Default: the project's choice."""
-    views: int = Field(6, ge=0)
+    views: int = Field(default=6, ge=0)
     """Viewpoints to sample and render with sampling 'target'; 0 generates only viewpoint-free questions.
     Default: the project's choice."""
-    walks: int = Field(1, ge=0)
+    walks: int = Field(default=1, ge=0)
     """Walks of the agent per scene (sampling 'walk'). Default: the project's choice."""
-    walk_steps: int = Field(16, ge=1)
+    walk_steps: int = Field(default=16, ge=1)
     """Discrete actions per walk, a capture after each. Default: the project's choice."""
-    walk_eye_height: float = Field(1.5, gt=0.0)
+    walk_eye_height: float = Field(default=1.5, gt=0.0)
     """The agent's fixed eye height above the floor (m). Default: the project's choice."""
-    walk_step_m: float = Field(0.5, gt=0.0)
+    walk_step_m: float = Field(default=0.5, gt=0.0)
     """Length of a forward move (m). Default: the project's choice."""
-    walk_turn_deg: float = Field(30.0, gt=0.0)
+    walk_turn_deg: float = Field(default=30.0, gt=0.0)
     """Yaw change of a turn (degrees). Default: the project's choice."""
-    walk_look_deg: float = Field(15.0, gt=0.0)
+    walk_look_deg: float = Field(default=15.0, gt=0.0)
     """Pitch change of a look up/down (degrees). Default: the project's choice."""
-    walk_look_max_deg: float = Field(30.0, ge=0.0, lt=89.0)
+    walk_look_max_deg: float = Field(default=30.0, ge=0.0, lt=89.0)
     """Largest pitch up or down (degrees). Default: the project's choice."""
     walk_action_probs: tuple[float, float, float, float, float] = (0.4, 0.2, 0.2, 0.1, 0.1)
     """Probabilities of forward, turn left, turn right, look up, look down. Default: the project's choice."""
@@ -698,25 +698,25 @@ class VqaConfig(_Section):
     """Lowest camera height above the floor (m). Default: the project's choice."""
     eye_height_max: float = 1.7
     """Highest camera height above the floor (m). Default: the project's choice."""
-    wall_clearance: float = Field(0.3, ge=0.0)
+    wall_clearance: float = Field(default=0.3, ge=0.0)
     """A viewpoint keeps at least this distance to the floor polygon's boundary (m). Default: the project's choice."""
-    object_clearance: float = Field(0.25, ge=0.0)
+    object_clearance: float = Field(default=0.25, ge=0.0)
     """A viewpoint keeps at least this horizontal distance to every object's footprint (m).
     Default: the project's choice."""
-    view_distance_min: float = Field(0.8, ge=0.0)
+    view_distance_min: float = Field(default=0.8, ge=0.0)
     """Least horizontal distance from a viewpoint to its target object's centre (m). Default: the project's choice."""
-    view_distance_max: float = Field(6.0, gt=0.0)
+    view_distance_max: float = Field(default=6.0, gt=0.0)
     """Largest horizontal distance from a viewpoint to its target object's centre (m). Default: the project's choice."""
-    max_view_attempts: int = Field(200, ge=1)
+    max_view_attempts: int = Field(default=200, ge=1)
     """Position samples tried per viewpoint before the target is given up. Default: the project's choice."""
-    min_visible_pixels: int = Field(60, ge=1)
+    min_visible_pixels: int = Field(default=60, ge=1)
     """An object is visible in a view when its id covers at least this many pixels (paper: 'a minimal pixel
     threshold'). Default: the project's choice."""
-    image_width: int = Field(320, ge=16)
+    image_width: int = Field(default=320, ge=16)
     """Rendered view width (pixels). Default: the project's choice."""
-    image_height: int = Field(240, ge=16)
+    image_height: int = Field(default=240, ge=16)
     """Rendered view height (pixels). Default: the project's choice."""
-    hfov_deg: float = Field(75.0, gt=10.0, lt=170.0)
+    hfov_deg: float = Field(default=75.0, gt=10.0, lt=170.0)
     """Horizontal field of view of the rendered views (degrees). Default: the project's choice."""
     light_below_ceiling: float = 0.2
     """The ceiling-centred light hangs this far below the ceiling (m). Default: the project's choice."""
