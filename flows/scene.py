@@ -32,9 +32,8 @@ from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.runlog import Segment
 from rescene_core.stages.common import keyframes_of
 from rescene_core.stages.execution import capture_ref
-from tasks import instance as instance_tasks
-from tasks import scene as scene_tasks
-from tasks.common import retry_delays
+from tasks import dag as T
+from tasks.common import retry_delays, vlm_slot
 from tasks.run import failure_reason, finish_run, instance_outcome, state_row, write_run_config
 
 ProgressListener = Callable[[int, int, dict[str, Any]], None]
@@ -90,20 +89,17 @@ def rescene(
     capture_in = capture_ref(capture, verify_capture)
     # validation is cached on the capture's content hash: a bad capture fails here with every problem
     # listed; an unchanged one is not re-read
-    _bind(scene_tasks.validate_capture, run)(capture_in)
+    _bind(T.validate_capture, run)(capture_in)
     cap = open_capture(capture, validate=False)
     ids = [int(i.id) for i in cap.object_instances]
     labels = {int(i.id): i.label for i in cap.object_instances}
     logger.info("capture %s: %d object instances, %d frames", cap.scene_id, len(ids), cap.num_frames)
 
-    shell_t, views_t, keyframes_t = (
-        _bind(t, run) for t in (scene_tasks.estimate_shell, instance_tasks.select_views, scene_tasks.select_keyframes)
-    )
-    asset_t, pose_t = (_bind(t, run) for t in (instance_tasks.generate_asset, instance_tasks.register_instance))
+    shell_t, views_t, keyframes_t = (_bind(t, run) for t in (T.estimate_shell, T.select_views, T.select_keyframes))
+    asset_t, pose_t = (_bind(t, run) for t in (T.generate_asset, T.register_instance))
     relations_t, fusion_t, snapshot_t, attach_t, export_t, evaluate_t = (_bind(t, run) for t in (
-        scene_tasks.predict_relations, scene_tasks.fuse_graph, scene_tasks.snapshot_registration,
-        scene_tasks.attach_layout, scene_tasks.export, scene_tasks.evaluate))  # fmt: skip
-    simcheck_t = _bind(scene_tasks.simcheck, run)
+        T.predict_relations, T.fuse_graph, T.snapshot_registration, T.attach_layout, T.export, T.evaluate))  # fmt: skip
+    simcheck_t = _bind(T.simcheck, run)
     rd, cr = unmapped(str(run.root)), unmapped(capture_in)
     rows: list[dict[str, Any]] = []
     stage_rows: list[dict[str, Any]] = []
@@ -128,7 +124,9 @@ def rescene(
         assets = asset_t.map(rd, cr, view_refs, unmapped(config.assets))
         poses = pose_t.map(rd, cr, assets, unmapped(config.registration))
         frames = keyframes_of(keyframes_f.result())
-        preds = relations_t.map(rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph))
+        preds = relations_t.map(  # every VLM request holds a slot of the shared concurrency limit
+            rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph), request_slot=unmapped(vlm_slot)
+        )
 
         # fan-in of the instances, reporting progress as each one finishes
         index = {fut: k for k, fut in enumerate(poses)}

@@ -19,14 +19,14 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-from prefect import task
+from prefect import Task, task
 from prefect.cache_policies import CachePolicy
 from prefect.context import TaskRunContext
 from pydantic import BaseModel
 
 from rescene_core import paths
 from rescene_core.records import Missing, Ref, Stage
-from rescene_core.stages.dag import code_version
+from rescene_core.stages.dag import StageSpec, code_version
 from rescene_core.stages.execution import BadInputError, TransientStageError
 
 RESULTS_DIR = Path(paths.RESULTS)
@@ -93,15 +93,15 @@ def digest(value: Any) -> Any:
     raise TypeError(f"task input of type {type(value).__name__} cannot be part of a cache key; pass a reference")
 
 
-LOCATION_INPUTS = frozenset({"run_dir"})
-"""Task inputs that say where a run lives, not what it computes: left out of cache keys, so a run
-directory that moved (or is mounted elsewhere) keeps its cache."""
+UNKEYED_INPUTS = frozenset({"run_dir", "request_slot"})
+"""Task inputs that say where a run lives or how it reaches a shared service, not what it computes: left
+out of cache keys, so a run directory that moved (or is mounted elsewhere) keeps its cache."""
 
 
 @dataclass
 class StageInputs(CachePolicy):
     """Cache key = stage name + code version of the stage + digest of the inputs (see ``digest``),
-    the run directory's location (``LOCATION_INPUTS``) excluded."""
+    the run directory's location (``UNKEYED_INPUTS``) excluded."""
 
     stage: Stage = Stage.VALIDATE
 
@@ -112,11 +112,19 @@ class StageInputs(CachePolicy):
             {
                 "stage": self.stage,
                 "code": code_version(self.stage),
-                "inputs": digest({k: v for k, v in inputs.items() if k not in LOCATION_INPUTS}),
+                "inputs": digest({k: v for k, v in inputs.items() if k not in UNKEYED_INPUTS}),
             },
             sort_keys=True,
         )
         return f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
+
+
+def task_of(spec: StageSpec) -> Task[..., Any]:
+    """The Prefect task of a declared stage: its body with the input-hash cache policy, JSON results,
+    retries with backoff on transient errors only (none where the stage is not retried), tagged ``gpu``
+    where its backend wants one."""
+    retries = RETRIES if spec.retried else 0
+    return stage_task(spec.stage, retries, ("gpu",) if spec.gpu else ())(spec.run)
 
 
 def stage_task(stage: Stage, retries: int = RETRIES, tags: tuple[str, ...] = ()):

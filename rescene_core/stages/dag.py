@@ -43,7 +43,8 @@ from rescene_core.stages.version import source_hash
 
 RUN_INPUTS = frozenset({"run_dir", "capture", "instances", "config", "wall_height", "wall_thickness"})
 """Body parameters that no stage produces: where the run lives, the capture's reference and object ids,
-the stage's config section, the walls' drawing size (from the export section)."""
+the stage's config section, the walls' drawing size (from the export section). A body may also take
+parameters with defaults that the harness sets (relations' ``request_slot``)."""
 
 FAN_IN_INPUTS = frozenset({"missing", "frames"})
 """Values gathered between stages: every Missing instance (after registration), the key frames (from
@@ -73,6 +74,10 @@ class StageSpec:
     """The run-directory files it writes (docs/run-directory.md)."""
     when: Callable[[RunConfig], bool] | None = None
     """Runs only when this says so for the run's config (None: always)."""
+    gpu: bool = False
+    """Calls a model backend that wants a GPU worker (its Prefect tasks are tagged ``gpu``)."""
+    retried: bool = True
+    """Retried after a transient failure (validation is not: a capture that fails it stays failed)."""
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -92,18 +97,19 @@ def _simulate(config: RunConfig) -> bool:
 
 
 DAG: tuple[StageSpec, ...] = (
-    StageSpec(Stage.VALIDATE, validate.run, "validated", ("rescene_core.capture",), writes="(checks the capture)"),
+    StageSpec(Stage.VALIDATE, validate.run, "validated", ("rescene_core.capture",), writes="(checks the capture)",
+              retried=False),
     StageSpec(Stage.SHELL, shell.run, "shell", ("rescene_core.shell",), "shell", record=RoomShell, writes="shell.json"),
     StageSpec(Stage.VIEW, view.run, "views", ("rescene_core.hierview",), "hierview", record=ViewChoice,
               writes="instances/<id>/view.json"),
     StageSpec(Stage.ASSET, asset.run, "assets", ("rescene_core.assets",), "assets", over=("views", "view"),
-              writes="instances/<id>/asset.glb, asset.json"),
+              writes="instances/<id>/asset.glb, asset.json", gpu=True),
     StageSpec(Stage.REGISTRATION, registration.run, "poses", ("rescene_core.registration", "rescene_core.assets"),
               "registration", over=("assets", "asset"), record=Pose, writes="instances/<id>/pose.json"),
     StageSpec(Stage.KEYFRAMES, keyframes.run, "keyframes", ("rescene_core.hierview",), "keyframes",
               writes="keyframes.json"),
     StageSpec(Stage.RELATIONS, relations.run, "predictions", ("rescene_core.scenegraph",), "scenegraph",
-              over=("frames", "frame"), writes="scenegraph/frames/<t>.json, <t>.png"),
+              over=("frames", "frame"), writes="scenegraph/frames/<t>.json, <t>.png", gpu=True),
     StageSpec(Stage.FUSION, fusion.run, "graph", ("rescene_core.scenegraph",), "scenegraph", record=SceneGraph,
               writes="scenegraph/graph.json, graph.png"),
     StageSpec(Stage.SNAPSHOT, snapshot.run, "snapshot", writes="after_registration.json"),

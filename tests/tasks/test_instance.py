@@ -12,7 +12,7 @@ from rescene_core.io import hash_file
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, RefStatus, Stage
 from rescene_core.stages import calls as stages
-from tasks.instance import generate_asset, register_instance, select_views
+from tasks.dag import generate_asset, register_instance, select_views
 
 
 def _views(run_dir, capture, ids=(2, 3, 4)):

@@ -25,8 +25,8 @@ from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.stages import calls as stages
 from rescene_core.stages.common import keyframes_of
 from rescene_core.stages.execution import TransientStageError
-from tasks import scene as T
-from tasks.instance import generate_asset, register_instance, select_views
+from tasks import dag as T
+from tasks.dag import generate_asset, register_instance, select_views
 
 WALLS = (ExportConfig().wall_height, ExportConfig().wall_thickness)
 """How the run log draws the walls (height, thickness in m)."""
