@@ -9,6 +9,7 @@ seed gives the same questions.
 from __future__ import annotations
 
 from collections import Counter, defaultdict
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -105,7 +106,7 @@ class QuestionContext:
         self.filtered[cat][reason.value] += 1
 
     def choices(
-        self, answer: str, pool: list[str] | set[str], exclude: set[str] = frozenset()
+        self, answer: str, pool: list[str] | set[str], exclude: Collection[str] = frozenset()
     ) -> tuple[str, ...] | None:
         """The answer plus up to num_choices-1 distractors from ``pool`` (then EXTRA_LABELS), shuffled."""
         bad = set(exclude) | {answer}

@@ -10,6 +10,7 @@ Files (written atomically):
 from __future__ import annotations
 
 import json
+from collections import Counter
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -129,11 +130,11 @@ def evaluate_answers(
         given = {str(k): str(v) for k, v in answers.items()}
     else:
         given = {str(a["id"]): str(a["answer"]) for a in answers}
-    per: dict[str, dict[str, float]] = {c.value: {"correct": 0, "total": 0} for c in Category}
+    correct_by: Counter[str] = Counter()
+    total_by: Counter[str] = Counter()
     unanswered = 0
     for item in questions:
-        row = per[item.category.value]
-        row["total"] += 1
+        total_by[item.category.value] += 1
         if item.id not in given:
             unanswered += 1
             continue
@@ -142,10 +143,12 @@ def evaluate_answers(
         if reply.upper().rstrip(".)") in letters and len(reply.rstrip(".)")) == 1:
             reply = letters[reply.upper().rstrip(".)")]
         if normalise_answer(reply) == normalise_answer(item.answer):
-            row["correct"] += 1
-    for row in per.values():
-        row["accuracy"] = row["correct"] / row["total"] if row["total"] else None
-    correct = sum(r["correct"] for r in per.values())
-    total = sum(r["total"] for r in per.values())
+            correct_by[item.category.value] += 1
+    per: dict[str, dict[str, float | None]] = {}
+    for c in Category:
+        n_right, n = correct_by[c.value], total_by[c.value]
+        per[c.value] = {"correct": n_right, "total": n, "accuracy": n_right / n if n else None}
+    correct = sum(correct_by.values())
+    total = sum(total_by.values())
     overall = {"correct": correct, "total": total, "accuracy": correct / total if total else None}
     return {"per_category": per, "overall": overall, "unanswered": unanswered}

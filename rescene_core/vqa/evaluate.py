@@ -21,6 +21,7 @@ import re
 import threading
 import time
 from collections import Counter, defaultdict
+from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -203,14 +204,14 @@ def ask(client: ChatClient, record: dict[str, Any], ds: Path, blind: bool) -> di
     return {"id": record["id"], "reply": reply, "choice": None, "status": "off_format"}
 
 
-def score(records: list[dict[str, Any]], picks: dict[str, float | None]) -> dict[str, Any]:
+def score(records: list[dict[str, Any]], picks: Mapping[str, float | None]) -> dict[str, Any]:
     """Accuracy per Table 4 task, per category and overall. ``picks``: record id -> probability that the
     answer is right (1/0 for a model, 1/n for random), or None when unanswered.
 
     'avg' is over the questions of the four Table 4 tasks; 'overall' over every question."""
 
     def block(rows: list[dict[str, Any]]) -> dict[str, Any]:
-        answered = [picks[r["id"]] for r in rows if picks.get(r["id"]) is not None]
+        answered = [p for r in rows if (p := picks.get(r["id"])) is not None]
         correct = float(sum(answered))
         return {
             "total": len(rows),

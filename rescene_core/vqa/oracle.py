@@ -71,6 +71,13 @@ def _one(true: Iterable[str], choices: tuple[str, ...]) -> str | None:
     return hits[0] if len(hits) == 1 else None
 
 
+def _viewpoint(vp: Viewpoint | None, template: str) -> Viewpoint:
+    """The item's camera: every view template's question is generated with one."""
+    if vp is None:
+        raise ValueError(f"template {template!r} needs the item's viewpoint and it has none")
+    return vp
+
+
 def answer_on(
     item: VqaItem,
     scene: VqaScene,
@@ -118,7 +125,7 @@ def answer_on(
         return str(sum(1 for i in visible if i in s.obj and s.label(i) == prov["label"]))
     if t == "left_right_in_view":
         a, b = ids
-        cam = vp.camera.cam_from_world
+        cam = _viewpoint(vp, t).camera.cam_from_world
 
         def bearing(p: np.ndarray) -> float:
             q = cam[:3, :3] @ p + cam[:3, 3]
@@ -126,7 +133,7 @@ def answer_on(
 
         return "left" if bearing(s.obj[a].center) < bearing(s.obj[b].center) else "right"
     if t == "closer_to_camera":
-        return nearer(ids[0], ids[1], vp.eye)
+        return nearer(ids[0], ids[1], _viewpoint(vp, t).eye)
     if t == "higher":
         a, b = ids
         return names[a] if s.obj[a].center[2] > s.obj[b].center[2] else names[b]
@@ -136,19 +143,20 @@ def answer_on(
     if t == "distance_between":
         return distance_band(float(np.linalg.norm(s.obj[ids[0]].center - s.obj[ids[1]].center)), edges, 0.0)[0]
     if t == "distance_to_camera":
-        return distance_band(float(np.linalg.norm(s.obj[ids[0]].center - vp.eye)), edges, 0.0)[0]
+        return distance_band(float(np.linalg.norm(s.obj[ids[0]].center - _viewpoint(vp, t).eye)), edges, 0.0)[0]
     if t == "facing_wall":
-        fwd = vp.camera.world_from_cam[:3, 2]
+        fwd = _viewpoint(vp, t).camera.world_from_cam[:3, 2]
         heading = float(np.degrees(np.arctan2(fwd[1], fwd[0])) % 360.0)
         name = COMPASS[int(((heading + 45.0) % 360.0) // 90.0)]
         return f"{name} wall" if name in s.wall_names.values() else None
     if t == "object_direction":
-        return yaw_sector(relative_yaw(vp.camera.world_from_cam, s.obj[ids[0]].center), 0.0)[0]
+        return yaw_sector(relative_yaw(_viewpoint(vp, t).camera.world_from_cam, s.obj[ids[0]].center), 0.0)[0]
     if t == "nearest_to_camera":
-        best = min(ids, key=lambda i: float(np.linalg.norm(s.obj[i].center - vp.eye)))
+        eye = _viewpoint(vp, t).eye
+        best = min(ids, key=lambda i: float(np.linalg.norm(s.obj[i].center - eye)))
         return names[best]
     if t == "behind_camera":
-        wf = vp.camera.world_from_cam
+        wf = _viewpoint(vp, t).camera.world_from_cam
         return _one(
             [names[i] for i in ids if yaw_sector(relative_yaw(wf, s.obj[i].center), 0.0)[0] == "behind"], item.choices
         )
@@ -166,9 +174,10 @@ def answer_on(
     if t == "mounted_on_a_wall":
         return _one([s.label(i) for i in s.obj if s.wall_of(i) is not None], item.choices)
     if t == "what_on_wall":
-        name = s.wall_names.get(int(prov["wall_id"]))
+        wall_name = s.wall_names.get(int(prov["wall_id"]))
         return _one(
-            [s.label(i) for i in s.obj if (w := s.wall_of(i)) is not None and s.wall_names[w] == name], item.choices
+            [s.label(i) for i in s.obj if (w := s.wall_of(i)) is not None and s.wall_names[w] == wall_name],
+            item.choices,
         )
     if t == "same_support":
         e = s.edges.get(ids[0])
@@ -179,7 +188,9 @@ def answer_on(
     if t == "support_of_support":
         e = s.edges.get(ids[0])
         pid = None if e is None or e.relation != Relation.RESTS_ON else edge_parent_id(e)
-        up = None if pid is None else s.edges.get(pid)
+        if pid is None:
+            return None
+        up = s.edges.get(pid)
         return None if up is None or up.relation != Relation.RESTS_ON else s.parent_label(pid)
     if t == "rests_on_nearest":
         a = ids[0]
@@ -187,7 +198,7 @@ def answer_on(
         return _one([s.label(c) for c in s.children(near, Relation.RESTS_ON) if c != a], item.choices)
     if t == "rests_on_neighbour_in_view":
         b, sign = ids[0], (-1.0 if prov["side"] == "left" else 1.0)
-        cam = vp.camera.cam_from_world
+        cam = _viewpoint(vp, t).camera.cam_from_world
         furniture = [i for i in visible if i in s.edges and s.edges[i].parent == Root.FLOOR]
 
         def bearing_deg(i: int) -> float:

@@ -270,8 +270,8 @@ def scene_from_synth_layout(preset: str = "standard", seed: int = 0) -> VqaScene
     from rescene_core.records import InstanceId
 
     cfg = get_preset(preset)
-    root_rng = np.random.default_rng(seed)
-    rng_layout = np.random.default_rng(root_rng.bit_generator.seed_seq.spawn(6)[0])
+    # default_rng(seed) seeds from SeedSequence(seed): its first child is make_scene's layout stream
+    rng_layout = np.random.default_rng(np.random.SeedSequence(seed).spawn(6)[0])
     room = random_room(rng_layout, cfg)
     lay = furnish(room, cfg, rng_layout)
     objects = []
