@@ -60,6 +60,8 @@ def _round_trip(scene, work: Path) -> dict[str, Any]:
         dest = work / f"{layout}.zarr"
         report = import_capture(fmt, src, dest, ImportOptions(align="none", overwrite=True))
         cap = open_capture(dest)
+        if cap.depth is None:
+            raise ValueError(f"{dest}: the {layout} import wrote no depth frames")
         out[layout] = {
             "pose_max_abs": float(np.abs(cap.world_from_cam - a.world_from_cam).max()),
             "K_max_abs": float(np.abs(cap.K - a.K).max()),
@@ -144,7 +146,7 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
 
     work_dir = Path(work_dir)
     work_dir.mkdir(parents=True, exist_ok=True)
-    per_seed = []
+    per_seed: list[dict[str, Any]] = []
     for seed in seeds:
         scene = make_scene(preset, seed)
         work = work_dir / f"seed{seed}"

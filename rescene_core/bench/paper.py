@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, TypedDict
 
 import numpy as np
 
@@ -37,7 +37,20 @@ RENDER_STRIDE = 4
 VIEW_RUNS = {"hierview": None, "largest_mask": "largest_mask", "completeness_only": "completeness_only"}
 """Full runs per seed: name -> hierview.method override (None: the default, the paper's HierView)."""
 
-PAPER = {
+
+class PaperNumbers(TypedDict):
+    """The paper's tables: per table, method or variant -> metric -> value."""
+
+    source: str
+    main: dict[str, dict[str, float]]
+    judge: dict[str, list[float]]
+    structural: dict[str, dict[str, float]]
+    ablation_a: dict[str, dict[str, float]]
+    ablation_b: dict[str, dict[str, float]]
+    ablation_c: dict[str, dict[str, float]]
+
+
+PAPER: PaperNumbers = {
     "source": "ReScene paper, Tables 1-3: ScanNet, 30 scenes, its own baselines; not the data measured here",
     "main": {
         "Gen3DSR": {
@@ -178,15 +191,15 @@ def _row(placed, graph, shell, shell_meshes, capture, gt, gt_samples, key_frames
 
 def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     from rescene_core.assembly import AssemblyObject, attach
+    from rescene_core.bench.runs import synth_ground_truth
     from rescene_core.bench.scenegraph import single_frame_graph
     from rescene_core.capture import open_capture
-    from rescene_core.capture.ground_truth import read_ground_truth
     from rescene_core.capture.synth import write_synth
     from rescene_core.config import AttachmentConfig, SceneGraphConfig
     from rescene_core.evaluation.scene import load_scene, placed_meshes
     from rescene_core.export import ExportConfig, shell_meshes
     from rescene_core.io import read_json
-    from rescene_core.records import Edge, InstanceId, RoomShell, SceneGraph
+    from rescene_core.records import Edge, InstanceId, SceneGraph
     from rescene_core.scenegraph import FramePrediction, fuse_with_report
 
     capture_path = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
@@ -196,7 +209,7 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     for name, method in VIEW_RUNS.items():
         minutes[name] = _run(capture_path, work_dir / "runs" / f"{preset}_seed{seed}_{name}", method)
     cap = open_capture(capture_path, validate=False)
-    gt = read_ground_truth(cap)
+    gt = synth_ground_truth(cap)
     cfg = GeometryConfig()
     gt_samples = sample_meshes({o.object_id: gt.world_mesh(o.object_id) for o in gt.objects}, cfg)
     rows: dict[str, dict[str, Any]] = {}
@@ -204,11 +217,12 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
     key_frames = [int(t) for t in read_json(RunPaths(ours_dir).keyframes)["frames"]]
     for name in VIEW_RUNS:
         doc = load_scene(work_dir / "runs" / f"{preset}_seed{seed}_{name}")
-        shell = RoomShell.from_json(doc["shell"])
+        shell = doc.scene.shell
+        assert shell is not None, "the pipeline's export always records the room shell"
         t0 = time.perf_counter()
         rows[f"view_{name}"] = _row(
             placed_meshes(doc),
-            SceneGraph.from_json(doc["graph"]),
+            doc.scene.graph,
             shell,
             shell_meshes(shell, ExportConfig()),
             cap,
@@ -222,30 +236,26 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
 
     # relation and attachment variants from ours' registered poses and frame predictions
     doc = load_scene(ours_dir)
-    shell = RoomShell.from_json(doc["shell"])
+    shell = doc.scene.shell
+    assert shell is not None, "the pipeline's export always records the room shell"
     shells = shell_meshes(shell, ExportConfig())
-    objects = {
-        InstanceId(int(o["instance"])): AssemblyObject(
-            InstanceId(int(o["instance"])),
-            o["label"],
-            o["vertices"],
-            o["faces"],
-            np.asarray(o.get("registered_world_from_asset") or o["world_from_asset"], np.float64),
-        )
-        for o in doc["objects"]
+    registered = {**doc.final_poses(), **doc.registered_poses()}
+    objects: dict[int, AssemblyObject] = {
+        o.instance: AssemblyObject(o.instance, o.label, *doc.meshes[o.instance], registered[int(o.instance)])
+        for o in doc.scene.objects
     }
     preds = [
         FramePrediction.from_json(read_json(p))
         for p in sorted(RunPaths(ours_dir).frame_json(0).parent.glob("*.json"), key=lambda p: int(p.stem))
     ]
     children = [int(i) for i in objects]
-    missing = {int(m["instance"]) for m in doc.get("missing", [])}
+    missing = {int(m.instance) for m in doc.scene.missing}
     sg = SceneGraphConfig()
     single = single_frame_graph(preds, children)
     graphs = {
         "single_frame": SceneGraph(tuple(Edge(InstanceId(c), r, p, 1.0) for c, (r, p) in sorted(single.items()))),
         "vote": fuse_with_report(preds, cap, shell, sg, missing=missing, variant="vote")[0],
-        "full": SceneGraph.from_json(doc["graph"]),
+        "full": doc.scene.graph,
     }
     for name, graph in graphs.items():
         t0 = time.perf_counter()
@@ -257,9 +267,10 @@ def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
             _placed(objects, poses), graph, shell, shells, cap, gt, gt_samples, key_frames, render=True
         )
         rows[f"relations_{name}"]["attach_s"] = attach_s
-    for stage in ("none", "relations", "repair", "full"):
+    stages: tuple[Literal["none", "relations", "repair", "full"], ...] = ("none", "relations", "repair", "full")
+    for stage in stages:
         if stage == "none":
-            poses = {i: o.world_from_asset for i, o in objects.items()}
+            poses = {InstanceId(i): o.world_from_asset for i, o in objects.items()}
         else:
             poses = attach(objects, graphs["full"], shell, AttachmentConfig(stop_after=stage)).world_from_asset
         rows[f"attach_{stage}"] = _row(

@@ -91,7 +91,7 @@ def run(seeds: list[int], preset: str, work_dir: Path, harness: Harness | None =
     harness.start()
     api_start = time.perf_counter() - start
 
-    runs = []
+    runs: list[dict[str, Any]] = []
     for seed in seeds:
         capture = _capture(work_dir, preset, seed)
         run_dir = work_dir / f"run_{preset}_seed{seed}"

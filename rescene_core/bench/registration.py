@@ -168,8 +168,8 @@ def _job(job: dict[str, Any]) -> list[dict[str, Any]]:
     import open3d as o3d
 
     from rescene_core.assets import load_asset
+    from rescene_core.bench.runs import synth_ground_truth
     from rescene_core.capture import open_capture
-    from rescene_core.capture.ground_truth import read_ground_truth
     from rescene_core.config import RegistrationConfig
     from rescene_core.geometry import sim3
     from rescene_core.records import Missing
@@ -178,7 +178,7 @@ def _job(job: dict[str, Any]) -> list[dict[str, Any]]:
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
     config = RegistrationConfig()
     cap = open_capture(job["capture"], validate=False)
-    gt = read_ground_truth(cap)
+    gt = synth_ground_truth(cap)
     obj = next(o for o in gt.objects if o.object_id == job["object_id"])
     target = cap.point_cloud(job["instance"])
     diameter = float(np.linalg.norm(np.ptp(obj.vertices, axis=0)))
@@ -243,8 +243,8 @@ def _summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
 def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Write the capture, choose views, generate lift assets; returns the jobs and notes of this seed."""
     from rescene_core.assets import generate_asset, save_asset
+    from rescene_core.bench.runs import synth_ground_truth
     from rescene_core.capture import open_capture
-    from rescene_core.capture.ground_truth import read_ground_truth
     from rescene_core.capture.synth import write_synth
     from rescene_core.config import AssetConfig
     from rescene_core.records import Missing
@@ -253,7 +253,7 @@ def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str
     if not path.exists():
         write_synth(path, preset=preset, seed=seed)
     cap = open_capture(path, validate=False)
-    gt = read_ground_truth(cap)
+    gt = synth_ground_truth(cap)
     notes: dict[str, Any] = {"seed": seed, "objects": len(gt.objects), "missed_by_capture": 0}
     jobs: list[dict[str, Any]] = []
     primary: dict[int, Any] = {}

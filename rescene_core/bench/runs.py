@@ -12,6 +12,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from rescene_core.capture.format import Capture
+from rescene_core.capture.ground_truth import GroundTruth, read_ground_truth
 from rescene_core.paths import RunPaths
 
 
@@ -23,6 +25,15 @@ def synth_capture(work_dir: Path, preset: str, seed: int) -> Path:
     if not capture.exists():
         write_synth(capture, preset=preset, seed=seed)
     return capture
+
+
+def synth_ground_truth(capture: Capture | str | Path) -> GroundTruth:
+    """The ground truth a suite measures against; ValueError when the capture has none (not a synthetic one)."""
+    gt = read_ground_truth(capture)
+    if gt is None:
+        name = capture.path if isinstance(capture, Capture) else capture
+        raise ValueError(f"{name} has no ground truth; benchmarks need synthetic captures")
+    return gt
 
 
 def pipeline_run(
