@@ -108,6 +108,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="synthetic capture -> validate -> the flow; prints where to look")
     p.add_argument("--out", type=Path, default=Path("demo"))
-    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered"])
+    p.add_argument("--preset", default="standard", choices=["tiny", "standard", "cluttered", "egocentric"])
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_demo)

@@ -73,7 +73,9 @@ def test_the_walk_sees_only_part_of_the_room(ego):
     seen = {(int((p[0] - x0) // cell), int((p[1] - y0) // cell)) for p in floor_points} & cells
     assert 0.05 < len(seen) / len(cells) < 0.6  # the floor is seen in patches
 
-    # no floor under the island's and the worktops' bodies (their outlines less the overhangs and toe kicks)
+    # nothing at floor height under the island's and the worktops' bodies (their outlines less the overhangs
+    # and toe kicks); floor-labelled points higher up are other surfaces' pixels the mask noise gave the floor
+    floor_points = floor_points[floor_points[:, 2] < 0.05]
     for o in gt.objects:
         if o.label in ("kitchen island", "kitchen counter"):
             outline = MultiPoint(o.world_vertices()[:, :2]).convex_hull
