@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from rescene_core.capture import Capture
 from rescene_core.records import Plane, RoomShell, WallPlane
@@ -17,6 +18,16 @@ a count, not a quantile, because the points near a contact are few (the contact 
 EXTREME_FRACTION = 0.002
 WALL_LATERAL_MARGIN = 0.10
 """Points within this distance beyond a wall segment's ends still count as in front of it (m)."""
+COUNTER_HEIGHTS = (0.6, 1.2)
+"""A large horizontal top between these heights (m) with nothing seen below it is a counter, an island or a
+table (``seen_only_from_above``): a head-mounted camera looking down at it never sees its base."""
+COUNTER_MIN_SIDE = 0.40
+"""... large: both sides of its footprint's minimum-area rectangle at least this long (m); a wall shelf
+(about 0.3 m deep), a tray or a cutting board is smaller."""
+COUNTER_DEPTH = 0.10
+"""... nothing seen below: at least COUNTER_TOP_SHARE of its points lie within this of its top (m)."""
+COUNTER_TOP_SHARE = 0.90
+"""See COUNTER_DEPTH: the share of an instance's points on its top for it to be seen only from above."""
 SPAN_QUANTILE = 0.10
 """The bulk of an instance's points (this quantile to 1 - it) measures how far it spans off a wall: mask
 edges bleed onto the wall behind and onto far surfaces, so the extremes are not used."""
@@ -48,6 +59,75 @@ def lower_surface(height: NDArray) -> float:
 def upper_surface(height: NDArray) -> float:
     """Height (m) of an instance's top from its point heights [n] (-inf when empty)."""
     return -lower_surface(-np.asarray(height)) if len(height) else float("-inf")
+
+
+def near_footprint(points: NDArray, footprint_xy: NDArray, radius: float) -> NDArray[np.bool_]:
+    """bool [n]: the points [n, 3] whose horizontal position is within ``radius`` (m) of some point of
+    ``footprint_xy`` [m, 2] (under or beside that footprint)."""
+    pts = np.asarray(points, dtype=np.float64)
+    if not len(pts) or not len(footprint_xy):
+        return np.zeros(len(pts), bool)
+    dist = cKDTree(np.asarray(footprint_xy, dtype=np.float64)).query(pts[:, :2], distance_upper_bound=radius)[0]
+    return np.isfinite(dist)
+
+
+def holds_from_below(
+    parent_points: NDArray,
+    parent_height: NDArray,
+    parent_bottom: float,
+    around: NDArray[np.bool_],
+    child_xy: NDArray,
+    child_bottom: float,
+    tol: float,
+) -> bool:
+    """Whether an instance can hold a child from below, judged by its top surface, not its lowest point.
+
+    parent_points: [n, 3] its points, parent_height: [n] their heights (m); parent_bottom: its lower contact
+    surface (m); around: bool [n], its points under or beside the child's footprint (``near_footprint``);
+    child_xy: [m, 2] the child's points' horizontal positions; child_bottom: the child's lower contact
+    surface (m); tol: ``support_tol``. True when the instance reaches further down than the child's bottom
+    (furniture seen down to its base, or a shelf unit: the child may stand on any shelf of it), or when its
+    points around the child rise no higher than the child's bottom there and the child's centre (median
+    position) is over it (inside the convex hull of its points): its top is where the child stands, a
+    counter or an island seen only from above, whose lowest visible point is its top. A neighbour standing
+    on the same surface starts at the child's bottom and either rises above it or lies beside the child's
+    centre, not under it (a tray beside a cup; the island does not rest on the tray on it). Whether it has an
+    upward face at the child's bottom within ``support_gap`` is tested separately."""
+    import shapely
+    from shapely.geometry import MultiPoint
+
+    if parent_bottom < child_bottom - tol:
+        return True
+    if not around.any() or upper_surface(np.asarray(parent_height)[around]) > child_bottom + tol or not len(child_xy):
+        return False
+    hull = MultiPoint(np.asarray(parent_points, dtype=np.float64)[:, :2]).convex_hull
+    centre = np.median(np.asarray(child_xy, dtype=np.float64), axis=0)
+    return bool(shapely.contains_xy(hull, centre[0], centre[1]))
+
+
+def seen_only_from_above(height: NDArray, xy: NDArray) -> bool:
+    """Whether an instance is a large horizontal top at counter height with nothing seen below it: its top
+    (``upper_surface`` of ``height`` [n], m above the floor) between COUNTER_HEIGHTS, at least
+    COUNTER_TOP_SHARE of its points within COUNTER_DEPTH of that top, and both sides of the minimum-area
+    rectangle of ``xy`` [n, 2] at least COUNTER_MIN_SIDE (so a horizontal slab). Such
+    a thing is a counter, an island or a table whose sides and base were out of view: it stands on the
+    floor even though its lowest visible point is 0.6-1.2 m above it."""
+    from shapely.geometry import MultiPoint
+
+    h = np.asarray(height, dtype=np.float64)
+    if len(h) < 3:
+        return False
+    top = upper_surface(h)
+    if not COUNTER_HEIGHTS[0] <= top <= COUNTER_HEIGHTS[1]:
+        return False
+    on_top = h >= top - COUNTER_DEPTH
+    if on_top.mean() < COUNTER_TOP_SHARE:
+        return False
+    rect = MultiPoint(np.asarray(xy, dtype=np.float64)).minimum_rotated_rectangle
+    if rect.geom_type != "Polygon":
+        return False
+    c = np.asarray(rect.exterior.coords)
+    return min(float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))) >= COUNTER_MIN_SIDE
 
 
 def upward_mask(points: NDArray, shell: RoomShell, neighbours: int, max_angle_deg: float) -> NDArray[np.bool_]:

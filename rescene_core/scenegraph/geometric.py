@@ -8,13 +8,19 @@ or its point cloud restricted to the pixels of its mask here) and at the other i
    it stands in front of, spanning at most ``wall_max_depth`` off it -> mounts-on wall, whatever is
    beneath it (a picture hung just above a sofa back or a wall shelf nearly touches that upward face; a
    thing standing on furniture against a wall keeps its bulk further out);
-3. a visible instance that starts lower has upward-facing surface points at the child's bottom height,
-   under the child's footprint -> rests-on that instance (largest footprint overlap);
-4. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
+3. a visible instance that can hold it from below (``geom.holds_from_below``: judged by its top surface
+   around the child, not its lowest visible point) has upward-facing surface points from ``support_gap``
+   below to ``support_tol`` above the child's bottom, under the child's footprint -> rests-on that
+   instance (largest footprint overlap);
+4. it is a large horizontal top at counter height with nothing seen below (``geom.seen_only_from_above``)
+   -> rests-on floor (a counter or an island whose base is out of view);
+5. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
    on a wall (spanning at most ``wall_max_depth`` off the wall) -> rests-on floor (its base is out of
    view, not absent);
-5. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
-6. otherwise the highest visible instance beneath it, else the nearer of floor and wall.
+6. its back is within ``wall_tol`` of a wall plane it stands in front of -> mounts-on wall;
+7. otherwise the highest visible instance beneath it that can hold it from below, its top under the
+   child at most ``support_gap`` below the child's bottom (rests-on is contact), else the nearer of floor
+   and wall.
 
 Occlusion and partial views make frames disagree, as a VLM's answers do; fusion reconciles them.
 It answers in the prompt's JSON format and does no A/B re-ranking.
@@ -32,8 +38,11 @@ from rescene_core.scenegraph.geom import (
     SPAN_QUANTILE,
     floor_only_shell,
     heights,
+    holds_from_below,
     lower_surface,
+    near_footprint,
     nearest_wall,
+    seen_only_from_above,
     upper_surface,
     upward_mask,
     wall_flush,
@@ -120,20 +129,25 @@ class GeometricPredictor:
         best, best_key = None, None
         below = []
         for q, pq in pts.items():
-            if q == d or len(pq) < cfg.min_points or not bottom[q] < b - cfg.support_tol:
+            if q == d or len(pq) < cfg.min_points:
                 continue
             if flat_on_a_wall(pq, shell, cfg):
                 continue  # a picture or a mirror hangs flat on its wall and carries nothing (a shelf just above it)
             hq = h[q]
+            around = near_footprint(pq, xy, cfg.support_radius)
+            # judged by its top surface around the child, not its lowest visible point (an island seen only
+            # from above has its lowest visible point at its top, at the child's bottom)
+            if not holds_from_below(pq, hq, bottom[q], around, xy, b, cfg.support_tol):
+                continue
+            # its highest points under the child, below the child's bottom: more than support_gap lower, the
+            # child does not rest on it (a wall cabinet above a cup)
+            under = around & (hq < b + cfg.support_tol)
+            if under.any() and upper_surface(hq[under]) >= b - cfg.support_gap:
+                below.append((upper_surface(hq[under]), q))
             # an upward-facing surface of q at the child's bottom height (a bed's side beside a nightstand,
             # or the neighbouring book's side, is at that height too, but faces sideways)
-            band = (np.abs(hq - b) <= cfg.support_tol) & up[q]
+            band = (hq >= b - cfg.support_gap) & (hq <= b + cfg.support_tol) & up[q]
             surface = pq[band][:, :2]
-            under = pq[hq < b + cfg.support_tol][:, :2]
-            if len(under):
-                near = cKDTree(under).query(xy, distance_upper_bound=cfg.support_radius)[0]
-                if np.isfinite(near).mean() > 0:
-                    below.append((upper_surface(hq[hq < b + cfg.support_tol]), q))
             if len(surface) < 3:
                 continue
             dist = cKDTree(surface).query(xy, distance_upper_bound=cfg.support_radius)[0]
@@ -143,6 +157,8 @@ class GeometricPredictor:
                 best, best_key = q, key
         if best is not None:
             return Relation.RESTS_ON.value, int(best)
+        if seen_only_from_above(h[d], xy):
+            return Relation.RESTS_ON.value, Root.FLOOR.value  # a counter or an island whose base is out of view
         wall, wall_d = nearest_wall(p, shell)
         flat_on_wall = False
         if wall is not None and wall_d <= cfg.wall_tol:

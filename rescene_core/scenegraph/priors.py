@@ -17,7 +17,12 @@ meshes. Every score is in [0, 1].
   picture or a shelf touches (its side edge lies against the perpendicular wall as closely as its back
   against its own). The argmax wall is the edge's wall_id;
 - object parent: support = exp(-(gap / support_sigma)^2) x the fraction of the child's contact footprint
-  above an upward-facing face of the parent at the child's bottom height.
+  above an upward-facing face of the parent from ``support_gap`` below to 2 ``support_tol`` above the
+  child's bottom, the parent judged by its top surface around the child, not its lowest visible point
+  (``geom.holds_from_below``: an island seen only from above holds the cup on it).
+
+A large horizontal top at counter height with nothing seen below (``top_only``, ``geom.seen_only_from_above``)
+touches the floor (floor contact 1, here and in the shell prior): its base is out of view, not absent.
 
 Room-shell prior: floor = touches x inside; wall = (1 - touches) x near a wall (the best wall's
 exp(-(residual / wall_sigma)^2) x lateral fraction, with the same back distance); object = (1 - touches)
@@ -38,7 +43,17 @@ from shapely.geometry import MultiPoint
 from rescene_core.capture import Capture
 from rescene_core.config import SceneGraphConfig
 from rescene_core.records import InstanceId, Parent, RoomShell, Root
-from rescene_core.scenegraph.geom import heights, lower_surface, upper_surface, upward_mask, wall_back, wall_fit
+from rescene_core.scenegraph.geom import (
+    heights,
+    holds_from_below,
+    lower_surface,
+    near_footprint,
+    seen_only_from_above,
+    upper_surface,
+    upward_mask,
+    wall_back,
+    wall_fit,
+)
 
 CONTACT_BAND_RATIO = 0.2
 """The contact footprint is the child's points within max(support_tol, this x its height) of its bottom."""
@@ -55,6 +70,8 @@ class InstanceGeometry:
     bottom, top: robust lowest / highest height (m). inside: fraction of points inside the floor polygon.
     yaw: direction of the long side of the footprint's minimum-area rectangle (rad, world xy), or None
     when degenerate. elongation: 1 - short side / long side of that rectangle, in [0, 1] (0 = square).
+    top_only: a large horizontal top at counter height with nothing seen below it (``geom.seen_only_from_above``):
+    a counter, an island or a table whose base was out of view, taken to stand on the floor.
     """
 
     instance: InstanceId
@@ -66,6 +83,7 @@ class InstanceGeometry:
     inside: float
     yaw: float | None
     elongation: float = 0.0
+    top_only: bool = False
 
     @property
     def empty(self) -> bool:
@@ -150,6 +168,7 @@ def instance_geometry(
         inside,
         yaw,
         elongation,
+        seen_only_from_above(h, pts[:, :2]),
     )
 
 
@@ -157,11 +176,17 @@ def _gauss(x: float, sigma: float) -> float:
     return float(np.exp(-((x / sigma) ** 2))) if np.isfinite(x) else 0.0
 
 
+def _floor_touch(child: InstanceGeometry, config: SceneGraphConfig) -> float:
+    """exp(-(gap / floor_sigma)^2) of the child's bottom above the floor; 1 for a top seen only from above,
+    whose base is out of view, not absent."""
+    return 1.0 if child.top_only else _gauss(abs(child.bottom), config.fusion.floor_sigma)
+
+
 def floor_contact(child: InstanceGeometry, config: SceneGraphConfig) -> float:
     """G for (child, rests-on, floor)."""
     if child.empty:
         return 0.0
-    return _gauss(abs(child.bottom), config.fusion.floor_sigma) * child.inside
+    return _floor_touch(child, config) * child.inside
 
 
 def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraphConfig) -> tuple[float, int | None]:
@@ -180,13 +205,25 @@ def wall_alignment(child: InstanceGeometry, shell: RoomShell, config: SceneGraph
 
 
 def object_support(child: InstanceGeometry, parent: InstanceGeometry, config: SceneGraphConfig) -> float:
-    """G for (child, rests-on, parent): an upward face of the parent at the child's bottom, under it."""
-    if child.empty or parent.empty or not parent.bottom < child.bottom - config.geometric.support_tol:
+    """G for (child, rests-on, parent): an upward face of the parent at the child's bottom, under it, at most
+    ``support_gap`` below it; the parent judged by its top surface around the child (``geom.holds_from_below``),
+    not by its lowest visible point."""
+    if child.empty or parent.empty:
         return 0.0
-    band = max(config.geometric.support_tol, CONTACT_BAND_RATIO * (child.top - child.bottom))
+    cfg = config.geometric
+    band = max(cfg.support_tol, CONTACT_BAND_RATIO * (child.top - child.bottom))
     footprint = child.points[child.height <= child.bottom + band][:, :2]
-    face_mask = parent.upward & (np.abs(parent.height - child.bottom) <= 2 * config.geometric.support_tol)
-    if len(footprint) == 0 or face_mask.sum() < 3:
+    around = near_footprint(parent.points, footprint, cfg.support_radius)
+    if len(footprint) == 0 or not holds_from_below(
+        parent.points, parent.height, parent.bottom, around, footprint, child.bottom, cfg.support_tol
+    ):
+        return 0.0
+    face_mask = (
+        parent.upward
+        & (parent.height >= child.bottom - cfg.support_gap)
+        & (parent.height <= child.bottom + 2 * cfg.support_tol)
+    )
+    if face_mask.sum() < 3:
         return 0.0
     face = parent.points[face_mask]
     dist, idx = cKDTree(face[:, :2]).query(footprint, distance_upper_bound=config.geometric.support_radius)
@@ -217,7 +254,7 @@ def shell_prior(child: InstanceGeometry, parent: Parent, shell: RoomShell, confi
     """The room-shell prior of an edge into ``child`` (see the module docstring)."""
     if child.empty:
         return 0.0
-    touches = _gauss(max(0.0, child.bottom), config.fusion.floor_sigma)
+    touches = 1.0 if child.top_only else _gauss(max(0.0, child.bottom), config.fusion.floor_sigma)
     if parent == Root.FLOOR:
         return touches * child.inside
     if parent == Root.WALL:
