@@ -462,26 +462,26 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
     doc = load_scene(run_dir)
     cap = open_capture(capture, validate=False)
     gt = read_ground_truth(cap)
-    shell = RoomShell.from_json(doc["shell"])
+    shell = doc.scene.shell
+    assert shell is not None, "the pipeline's export always records the room shell"
     obj_of = gt.object_of_instance()
     objects = {
-        InstanceId(int(o["instance"])): AssemblyObject(
-            InstanceId(int(o["instance"])),
-            o["label"],
-            o["vertices"],
-            o["faces"],
-            np.asarray(o["registered_world_from_asset"], np.float64),
-            points=np.asarray(cap.point_cloud(int(o["instance"])).points, np.float64),
+        o.instance: AssemblyObject(
+            o.instance,
+            o.label,
+            *doc.meshes[o.instance],
+            o.registered_world_from_asset,
+            points=np.asarray(cap.point_cloud(int(o.instance)).points, np.float64),
         )
-        for o in doc["objects"]
-        if o.get("registered_world_from_asset") is not None
+        for o in doc.scene.objects
+        if o.registered_world_from_asset is not None
     }
     gt_centre = {}
     for i in objects:
         if int(i) in obj_of:
             gv = np.asarray(gt.world_mesh(obj_of[int(i)]).vertices)
             gt_centre[i] = 0.5 * (gv.min(0) + gv.max(0))
-    fused_graph = SceneGraph.from_json(doc["graph"])
+    fused_graph = doc.scene.graph
     gt_graph = gt.graph_by_instance()
     graphs = {
         "fused": fused_graph,

@@ -25,11 +25,10 @@ import trimesh
 from rescene_core.capture import open_capture
 from rescene_core.evaluation.judge import scene_views
 from rescene_core.evaluation.rendering import _mean_color, scaled, scene_render_meshes
-from rescene_core.evaluation.scene import load_scene, placed_meshes
+from rescene_core.evaluation.scene import LoadedScene, load_scene, placed_meshes
 from rescene_core.export import ExportConfig, node_name, shell_meshes
 from rescene_core.io import read_json, write_bytes_atomic
 from rescene_core.paths import RunPaths
-from rescene_core.records import RoomShell
 from rescene_core.render import Renderer, Shading
 
 MODEL_VIEWER_ENV = "RESCENE_MODEL_VIEWER_JS"
@@ -131,7 +130,7 @@ def _table(header: list[str], rows: list[list[Any]], cls: str = "") -> str:
     return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
-def _object_rows(metrics: dict[str, Any], doc: dict[str, Any] | None) -> list[list[Any]]:
+def _object_rows(metrics: dict[str, Any], doc: LoadedScene | None) -> list[list[Any]]:
     st = metrics.get("structural", {})
     oob = set(st.get("oob_objects", []))
     colliding: dict[int, list[int]] = {}
@@ -144,8 +143,8 @@ def _object_rows(metrics: dict[str, Any], doc: dict[str, Any] | None) -> list[li
     sensor_rows = {r["instance"]: r for r in geo.get("sensor", {}).get("per_object", [])}
     iou = {r["instance"]: r["iou"] for r in metrics.get("rendering", {}).get("per_object", [])}
     rows = []
-    for o in (doc or {}).get("objects", []):
-        i = int(o["instance"])
+    for o in doc.scene.objects if doc is not None else ():
+        i = int(o.instance)
         problems = []
         if i in oob:
             problems.append("out of the room")
@@ -157,8 +156,8 @@ def _object_rows(metrics: dict[str, Any], doc: dict[str, Any] | None) -> list[li
         rows.append(
             [
                 i,
-                o["label"],
-                f"{o.get('relation') or '-'} {o.get('parent') if o.get('parent') is not None else ''}",
+                o.label,
+                f"{o.relation or '-'} {o.parent if o.parent is not None else ''}",
                 g.get("chamfer"),
                 g.get("fscore@5cm"),
                 s.get("chamfer"),
@@ -243,7 +242,7 @@ def _judge(metrics: dict[str, Any]) -> str:
     return f"<p>model {html.escape(str(j.get('model')))}</p>" + _table(["axis", "score (1-5)", "comment"], rows)
 
 
-def _figures(run_dir: Path, metrics: dict[str, Any], doc: dict[str, Any] | None, capture: Any) -> dict[str, str]:
+def _figures(run_dir: Path, metrics: dict[str, Any], doc: LoadedScene | None, capture: Any) -> dict[str, str]:
     """Images of the page as data: URLs (each one skipped when its input is missing)."""
     out: dict[str, str] = {}
     plan = _png_file(RunPaths(run_dir).graph_png, 900)
@@ -254,18 +253,12 @@ def _figures(run_dir: Path, metrics: dict[str, Any], doc: dict[str, Any] | None,
     sheet = [u for u in (_png_file(p, 240) for p in frames[:24]) if u]
     for k, url in enumerate(sheet):
         out[f"sheet_{k}"] = url
-    if doc is None or capture is None or not doc["objects"]:
+    if doc is None or capture is None or not doc.scene.objects:
         return out
 
-    shell = shell_meshes(RoomShell.from_json(doc["shell"]), ExportConfig()) if doc.get("shell") else {}
+    shell = shell_meshes(doc.scene.shell, ExportConfig()) if doc.scene.shell is not None else {}
     after = placed_meshes(doc)
-    before_doc = {
-        "objects": [
-            {**o, "world_from_asset": o.get("registered_world_from_asset") or o["world_from_asset"]}
-            for o in doc["objects"]
-        ]
-    }
-    before = placed_meshes(before_doc)
+    before = placed_meshes(doc, {**doc.final_poses(), **doc.registered_poses()})
     for name, placed in (("before", before), ("after", after)):
         views = scene_views(placed, shell, capture, 1, 480, 360, 75.0)
         if views:
@@ -297,7 +290,7 @@ def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: An
 
     run_dir = Path(run_dir)
     try:
-        doc: dict[str, Any] | None = load_scene(run_dir)
+        doc: LoadedScene | None = load_scene(run_dir)
     except FileNotFoundError:
         doc = None
     if capture is None and metrics.get("capture") and Path(metrics["capture"]).exists():
@@ -309,9 +302,9 @@ def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: An
     ]
     js = model_viewer_js()
     viewer = ""
-    if doc is not None and doc["objects"] and js is not None:
+    if doc is not None and doc.scene.objects and js is not None:
         placed = placed_meshes(doc)
-        shell = shell_meshes(RoomShell.from_json(doc["shell"]), ExportConfig()) if doc.get("shell") else {}
+        shell = shell_meshes(doc.scene.shell, ExportConfig()) if doc.scene.shell is not None else {}
         colors = {i: (_mean_color(capture, [i]) if capture is not None else None) or (0.6, 0.6, 0.6) for i in placed}
         glb = viewer_glb(placed, shell, colors)
         parts.append("<script type='module'>" + js.replace("</script", "<\\/script") + "</script>")

@@ -14,7 +14,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
@@ -26,12 +25,11 @@ from rescene_core.evaluation.ground_truth import gt_metrics
 from rescene_core.evaluation.judge import JudgeConfig, judge_run
 from rescene_core.evaluation.rendering import RenderingConfig, rendering_metrics
 from rescene_core.evaluation.report_html import write_report_html
-from rescene_core.evaluation.scene import load_scene, placed_meshes
+from rescene_core.evaluation.scene import LoadedScene, load_scene, placed_meshes
 from rescene_core.evaluation.structural import structural_metrics
 from rescene_core.export import ExportConfig, shell_meshes
 from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
-from rescene_core.records import InstanceId, RoomShell, SceneGraph
 
 
 class EvaluationConfig(BaseModel):
@@ -49,9 +47,9 @@ class EvaluationConfig(BaseModel):
     """Write eval/report.html (evaluation/report_html.py)."""
 
 
-def _capture_path(run_dir: Path, doc: dict[str, Any] | None) -> str | None:
-    if doc and doc.get("capture"):
-        return str(doc["capture"])
+def _capture_path(run_dir: Path, doc: LoadedScene | None) -> str | None:
+    if doc is not None and doc.scene.capture:
+        return doc.scene.capture
     manifest = RunPaths(run_dir).manifest
     if manifest.exists():
         cap = read_json(manifest).get("capture")
@@ -79,7 +77,7 @@ def evaluate_run(
     timings: dict[str, float] = {}
     not_computed: dict[str, str] = {}
     try:
-        doc: dict[str, Any] | None = load_scene(run_dir)
+        doc: LoadedScene | None = load_scene(run_dir)
     except FileNotFoundError as err:
         doc = None
         reason = f"no exported scene ({err})"
@@ -94,9 +92,9 @@ def evaluate_run(
     metrics: dict[str, Any] = {
         "run_dir": str(run_dir),
         "capture": None if capture is None else str(capture),
-        "objects": len(doc["objects"]) if doc else 0,
-        "missing": len(doc.get("missing", [])) if doc else None,
-        "missing_records": doc.get("missing", []) if doc else [],
+        "objects": len(doc.scene.objects) if doc else 0,
+        "missing": len(doc.scene.missing) if doc else None,
+        "missing_records": [m.to_json() for m in doc.scene.missing] if doc else [],
     }
     cap = None
     if capture is None:
@@ -116,29 +114,22 @@ def evaluate_run(
     final: dict[int, NDArray] = {}
     registered: dict[int, NDArray] = {}
     if doc is not None:
-        graph = SceneGraph.from_json(doc["graph"])
-        shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
-        final = {int(o["instance"]): np.asarray(o["world_from_asset"]) for o in doc["objects"]}
-        registered = {
-            int(o["instance"]): np.asarray(o["registered_world_from_asset"])
-            for o in doc["objects"]
-            if o.get("registered_world_from_asset") is not None
-        }
+        graph, shell = doc.scene.graph, doc.scene.shell
+        final, registered = doc.final_poses(), doc.registered_poses()
         t0, c0 = time.perf_counter(), time.process_time()
         if shell is None:
             not_computed["structural"] = "scene.json has no room shell"
-        elif not doc["objects"]:
+        elif not doc.scene.objects:
             not_computed["structural"] = "the run placed no object"
         else:
             objs = {
-                int(o["instance"]): AssemblyObject(
-                    InstanceId(int(o["instance"])),
-                    o["label"],
-                    o["vertices"],
-                    o["faces"],
-                    registered.get(int(o["instance"]), final[int(o["instance"])]),
+                int(o.instance): AssemblyObject(
+                    o.instance,
+                    o.label,
+                    *doc.meshes[o.instance],
+                    registered.get(int(o.instance), final[int(o.instance)]),
                 )
-                for o in doc["objects"]
+                for o in doc.scene.objects
             }
             metrics["structural"] = structural_metrics(objs, final, graph, shell, registered=registered or None)
         timings["structural"] = time.perf_counter() - t0
@@ -151,7 +142,7 @@ def evaluate_run(
             not_computed["ground_truth"] = "the capture has no ground truth (gt/ group)"
         elif doc is not None:
             t0, c0 = time.perf_counter(), time.process_time()
-            objects = {int(o["instance"]): (o["label"], o["vertices"], o["faces"]) for o in doc["objects"]}
+            objects = {int(o.instance): (o.label, *doc.meshes[o.instance]) for o in doc.scene.objects}
             metrics["ground_truth"] = gt_metrics(objects, final, registered, graph, gt)
             timings["ground_truth"] = time.perf_counter() - t0
             timings["ground_truth_cpu"] = time.process_time() - c0

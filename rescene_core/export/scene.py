@@ -8,7 +8,6 @@ asset frame and placed by ``world_from_asset`` (a Sim(3), float64 [4, 4]).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -22,13 +21,11 @@ from rescene_core.export.objects import ExportObject
 from rescene_core.export.points import write_scene_points
 from rescene_core.export.shell import shell_meshes
 from rescene_core.export.simulation import export_simulation
+from rescene_core.exported_scene import SCENE_FORMAT, ExportedObject, ExportedScene
 from rescene_core.geometry import sim3
-from rescene_core.io import hash_file, hash_tree, read_json, write_bytes_atomic
+from rescene_core.io import hash_file, hash_tree, write_bytes_atomic
 from rescene_core.names import check_unique
-from rescene_core.records import Completion, Missing, RoomShell, Root, SceneGraph, parent_to_json
-
-SCENE_FORMAT = "rescene-scene"
-SCENE_VERSION = 1
+from rescene_core.records import InstanceId, Missing, RoomShell, Root, SceneGraph, parent_to_json
 
 
 def build_scene(objects: Iterable[ExportObject], shell: RoomShell | None, config: ExportConfig) -> trimesh.Scene:
@@ -104,20 +101,18 @@ def export_scene(
         edge = parents.get(obj.instance)
         m = np.asarray(obj.world_from_asset, dtype=np.float64)
         entries.append(
-            {
-                "instance": int(obj.instance),
-                "label": obj.label,
-                "node": obj.node_name,
-                "mesh": rel,
-                "world_from_asset": m.tolist(),
-                "scale": sim3.scale_of(m),
-                "registered_world_from_asset": None
-                if obj.registered_world_from_asset is None
-                else np.asarray(obj.registered_world_from_asset).tolist(),
-                "parent": None if edge is None else edge.to_json()["parent"],
-                "relation": None if edge is None else edge.relation.value,
-                "completions": [c.to_json() for c in obj.completions],
-            }
+            ExportedObject(
+                instance=InstanceId(int(obj.instance)),
+                label=obj.label,
+                node=obj.node_name,
+                mesh=rel,
+                world_from_asset=m,
+                scale=sim3.scale_of(m),
+                registered_world_from_asset=obj.registered_world_from_asset,
+                parent=None if edge is None else parent_to_json(edge.parent),
+                relation=None if edge is None else edge.relation.value,
+                completions=tuple(obj.completions),
+            )
         )
     missing = list(missing)
     write_bytes_atomic(
@@ -129,19 +124,15 @@ def export_scene(
         ),
     )
     hashes["scene.glb"] = hash_file(out_dir / "scene.glb")
-    doc = {
-        "format": SCENE_FORMAT,
-        "version": SCENE_VERSION,
-        "units": "m",
-        "up": "+z",
-        "objects": entries,
-        "graph": graph.to_json() if graph is not None else {"edges": []},
-        "shell": shell.to_json() if shell is not None else None,
-        "shell_nodes": sorted(shell_meshes(shell, config)) if shell is not None else [],
-        "missing": [m.to_json() for m in missing],
-        **(extra or {}),
-    }
-    write_bytes_atomic(out_dir / "scene.json", json.dumps(doc, indent=2).encode())
+    exported = ExportedScene(
+        objects=tuple(entries),
+        graph=graph if graph is not None else SceneGraph(()),
+        shell=shell,
+        shell_nodes=tuple(sorted(shell_meshes(shell, config))) if shell is not None else (),
+        missing=tuple(missing),
+        extra=dict(extra or {}),
+    )
+    exported.write(out_dir / "scene.json")
     hashes["scene.json"] = hash_file(out_dir / "scene.json")
     write_scene_points(out_dir / "points.zarr", list(objects), config)
     hashes["points.zarr"] = hash_tree(out_dir / "points.zarr")
@@ -156,32 +147,25 @@ def export_scene(
 def read_exported_scene(
     scene_dir: str | Path,
 ) -> tuple[list[ExportObject], RoomShell | None, SceneGraph, list[Missing], dict[str, Any]]:
-    """The objects, shell, graph, missing instances and other scene.json fields of an exported scene/."""
+    """The objects (meshes loaded), shell, graph, missing instances and other scene.json fields of an
+    exported scene/."""
     scene_dir = Path(scene_dir)
-    path = scene_dir / "scene.json"
-    if not path.exists():
-        raise FileNotFoundError(f"{path} does not exist; the run has not exported a scene (run `rescene run` first)")
-    doc = read_json(path)
+    exported = ExportedScene.read(scene_dir / "scene.json")
     objects = []
-    for entry in doc["objects"]:
-        mesh = trimesh.load(scene_dir / entry["mesh"], force="mesh", process=False)
-        registered = entry.get("registered_world_from_asset")
+    for entry in exported.objects:
+        mesh = trimesh.load(scene_dir / entry.mesh, force="mesh", process=False)
         objects.append(
             ExportObject(
-                int(entry["instance"]),
-                str(entry["label"]),
+                int(entry.instance),
+                entry.label,
                 np.asarray(mesh.vertices, np.float64),
                 np.asarray(mesh.faces, np.int64),
-                np.asarray(entry["world_from_asset"], np.float64),
-                None if registered is None else np.asarray(registered, np.float64),
-                tuple(Completion.from_json(c) for c in entry.get("completions", ())),
+                entry.world_from_asset,
+                entry.registered_world_from_asset,
+                entry.completions,
             )
         )
-    shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
-    graph = SceneGraph.from_json(doc.get("graph", {"edges": []}))
-    missing = [Missing.from_json(m) for m in doc.get("missing", [])]
-    known = {"format", "version", "units", "up", "objects", "graph", "shell", "shell_nodes", "missing"}
-    return objects, shell, graph, missing, {k: v for k, v in doc.items() if k not in known}
+    return objects, exported.shell, exported.graph, list(exported.missing), dict(exported.extra)
 
 
 def export_run(run_dir: str | Path, config: ExportConfig) -> dict[str, Any]:

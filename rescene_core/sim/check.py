@@ -25,7 +25,8 @@ import numpy as np
 
 from rescene_core.config import SimcheckConfig
 from rescene_core.export.shell import floor_height
-from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
+from rescene_core.exported_scene import ExportedScene
+from rescene_core.io import write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import RoomShell
 
@@ -221,10 +222,7 @@ def simcheck_run(run_dir: str | Path, config: SimcheckConfig | None = None) -> S
         raise FileNotFoundError(
             f"{mjcf} does not exist; export the scene first (`rescene export {run_dir}` or `rescene run`)"
         )
-    shell = None
-    if run.scene_json.exists():
-        doc = read_json(run.scene_json)
-        shell = RoomShell.from_json(doc["shell"]) if doc.get("shell") else None
+    shell = ExportedScene.read(run.scene_json).shell if run.scene_json.exists() else None
     result, motion = simcheck(mjcf, shell, config)
     write_json_atomic(run.simcheck, result.to_json())
     draw_before_after(run.sim_picture, result, motion, shell)

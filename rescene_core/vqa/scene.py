@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core import paths
+from rescene_core.exported_scene import ExportedScene
 from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, Layout, Relation, RoomShell, Root, SceneGraph
 
@@ -179,8 +180,11 @@ def _read(path: Path, what: str) -> Any:
 def _labels(run: RunPaths) -> dict[int, str]:
     """Instance labels from scene/scene.json, else manifest.json, else instances/<id>/asset.json metadata."""
     if run.scene_json.is_file():
-        doc = _read(run.scene_json, "exported scene")
-        return {int(o["instance"]): str(o["label"]) for o in doc.get("objects", [])}
+        try:
+            scene = ExportedScene.from_json(_read(run.scene_json, "exported scene"), str(run.scene_json))
+        except (KeyError, TypeError, ValueError) as err:
+            raise VqaInputError(f"{run.scene_json}: not an exported scene ({err})") from err
+        return {int(o.instance): o.label for o in scene.objects}
     if run.manifest.is_file():
         rows = _read(run.manifest, "run manifest").get("instances", [])
         return {int(r["instance"]): str(r["label"]) for r in rows if "label" in r}

@@ -180,7 +180,7 @@ def test_readers_find_every_object(run):
     assert {o.node for o in check.objects} == set(NAMES.values())
     assert all(o.stable for o in check.objects)
     loaded = load_scene(run)
-    assert {int(o["instance"]): o["label"] for o in loaded["objects"]} == LABELS
+    assert {int(o.instance): o.label for o in loaded.scene.objects} == LABELS
     vqa = read_run(run)
     assert {o.id: o.label for o in vqa.objects} == LABELS
 
