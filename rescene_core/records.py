@@ -73,6 +73,13 @@ def parent_to_json(parent: Parent) -> int | str:
     return parent.value if isinstance(parent, Root) else int(parent)
 
 
+def _same_parent(a: Parent, b: Parent) -> bool:
+    """Whether two parents are the same root, or the same instance."""
+    if isinstance(a, Root) or isinstance(b, Root):
+        return a is b
+    return int(a) == int(b)
+
+
 def parent_from_json(value: int | str) -> Parent:
     if isinstance(value, str):
         try:
@@ -399,6 +406,34 @@ class SceneGraph:
 
     def parent_of(self) -> dict[InstanceId, Edge]:
         return {e.child: e for e in self.edges}
+
+    def children(self, parent: Parent, relation: Relation | None = None) -> list[InstanceId]:
+        """The children of ``parent`` (an instance or a root), sorted by id; only those attached by
+        ``relation`` when it is given."""
+        return sorted(
+            e.child
+            for e in self.edges
+            if (relation is None or e.relation == relation) and _same_parent(e.parent, parent)
+        )
+
+    def descendants(self, instance: InstanceId, relation: Relation | None = None) -> list[InstanceId]:
+        """Its children, then theirs (breadth first, each once; a cycle back to ``instance`` stops there)."""
+        out: list[InstanceId] = []
+        todo = self.children(instance, relation)
+        while todo:
+            c = todo.pop(0)
+            if c not in out and c != instance:
+                out.append(c)
+                todo += self.children(c, relation)
+        return out
+
+    def object_parents(self, relation: Relation | None = None) -> dict[InstanceId, InstanceId]:
+        """Child -> the object it is attached to (edges to another object, not to the floor or a wall)."""
+        return {
+            e.child: InstanceId(int(e.parent))
+            for e in self.edges
+            if (relation is None or e.relation == relation) and not isinstance(e.parent, Root)
+        }
 
     def check(self) -> list[str]:
         """Reasons the graph is not a valid forest (duplicate children, self loops, cycles, dangling parents)."""

@@ -72,7 +72,7 @@ from numpy.typing import NDArray
 from rescene_core.export.objects import ExportObject
 from rescene_core.geometry.completion import completion_solid, hull_mesh
 from rescene_core.geometry.sim3 import scale_of
-from rescene_core.records import CompletionKind, Relation, RoomShell, Root, SceneGraph
+from rescene_core.records import CompletionKind, InstanceId, Relation, RoomShell, SceneGraph
 
 Piece = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -233,26 +233,12 @@ def within_pulled_sides(extra: list[Piece], shell: list[Piece], sides: dict[str,
 
 
 def _children(instance: int, graph: SceneGraph | None) -> list[int]:
-    if graph is None:
-        return []
-    return sorted(
-        int(e.child)
-        for e in graph.edges
-        if e.relation == Relation.RESTS_ON and not isinstance(e.parent, Root) and int(e.parent) == int(instance)
-    )
-
-
-def _object_parents(graph: SceneGraph | None) -> dict[int, int]:
-    """Child -> the object it rests on (``rests-on`` edges to an object, not to the floor or a wall)."""
-    return {
-        int(e.child): int(e.parent)
-        for e in (graph.edges if graph is not None else [])
-        if e.relation == Relation.RESTS_ON and not isinstance(e.parent, Root)
-    }
+    """What rests on ``instance`` (sorted ids; none without a graph)."""
+    return [] if graph is None else [int(c) for c in graph.children(InstanceId(int(instance)), Relation.RESTS_ON)]
 
 
 def _depth(instance: int, parent: dict[int, int]) -> int:
-    """How many ``rests-on`` object edges (``parent``: ``_object_parents``) lie between ``instance`` and the
+    """How many ``rests-on`` object edges (``parent``: ``SceneGraph.object_parents``) lie between ``instance`` and the
     floor or wall (0: it stands on a root); a cycle stops the count."""
     depth, seen = 0, {int(instance)}
     while instance in parent and parent[instance] not in seen:
@@ -263,15 +249,8 @@ def _depth(instance: int, parent: dict[int, int]) -> int:
 
 
 def _descendants(instance: int, graph: SceneGraph | None) -> list[int]:
-    """Its children, then theirs (breadth first)."""
-    out: list[int] = []
-    todo = _children(instance, graph)
-    while todo:
-        c = todo.pop(0)
-        if c not in out and c != int(instance):
-            out.append(c)
-            todo += _children(c, graph)
-    return out
+    """What rests on it, then on those (breadth first; none without a graph)."""
+    return [] if graph is None else [int(c) for c in graph.descendants(InstanceId(int(instance)), Relation.RESTS_ON)]
 
 
 def hollow_shell(
@@ -816,7 +795,7 @@ def edit_colliders(
 
     # the deepest carriers first: a book stack's board under the box it carries is one of its pieces before
     # the shelf it stands in carves the stack's seat (else the shelf's side keeps the part under that board)
-    parent_object = _object_parents(graph)
+    parent_object = {int(c): int(p) for c, p in (graph.object_parents(Relation.RESTS_ON) if graph else {}).items()}
     for obj in sorted(objects, key=lambda o: -_depth(int(o.instance), parent_object)):
         name = obj.node_name
         seated, todo, seen = [], [(c, True) for c in _children(obj.instance, graph)], {int(obj.instance)}
