@@ -18,13 +18,13 @@ def _cmd_simcheck(args: argparse.Namespace) -> int:
         return 1
     s = result.summary
     print(
-        f"{s['stable']}/{s['free']} free objects stable after {s['seconds_simulated']} s"
-        f"{' with shake' if s['shake'] else ''} (stable fraction {s['stable_fraction']:.3f}); "
-        f"{s['fixed']} mounted; fell through {s['fell_through']}, escaped {s['escaped']}"
+        f"{s.stable}/{s.free} free objects stable after {s.seconds_simulated} s"
+        f"{' with shake' if s.shake else ''} (stable fraction {s.stable_fraction:.3f}); "
+        f"{s.fixed} mounted; fell through {s.fell_through}, escaped {s.escaped}"
     )
     print(
-        f"penetration at t=0: max {s['penetration_t0_max'] * 1000:.1f} mm, mean {s['penetration_t0_mean'] * 1000:.2f} mm"
-        + (f" ({' / '.join(result.deepest_pair)})" if result.deepest_pair and s["penetration_t0_max"] > 0 else "")
+        f"penetration at t=0: max {s.penetration_t0_max * 1000:.1f} mm, mean {s.penetration_t0_mean * 1000:.2f} mm"
+        + (f" ({' / '.join(result.deepest_pair)})" if result.deepest_pair and s.penetration_t0_max > 0 else "")
     )
     for o in result.objects:
         if o.kind == "free" and not o.stable:

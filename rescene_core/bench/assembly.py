@@ -546,12 +546,12 @@ def registration_physics(
     s = check.summary
     return {
         "run_dir": str(run_dir),
-        "free": s["free"],
-        "stable": s["stable"],
-        "stable_fraction": s["stable_fraction"],
-        "penetration_t0_max": s["penetration_t0_max"],
-        "fell_through": s["fell_through"],
-        "escaped": s["escaped"],
+        "free": s.free,
+        "stable": s.stable,
+        "stable_fraction": s.stable_fraction,
+        "penetration_t0_max": s.penetration_t0_max,
+        "fell_through": s.fell_through,
+        "escaped": s.escaped,
         "unstable": [o.node for o in check.objects if o.kind == "free" and not o.stable],
         "completions": sum(len(c) for c in completions.values()),
         "seconds": {

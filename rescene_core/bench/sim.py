@@ -80,7 +80,7 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
                 try:
                     entry.update(build(p, seed, work_dir, config))
                     check = simcheck_run(entry["run_dir"], SimcheckConfig())
-                    entry["simcheck"] = check.summary
+                    entry["simcheck"] = check.summary.to_json()
                     entry["unstable"] = [o.node for o in check.objects if o.kind == "free" and not o.stable]
                 except (RuntimeError, OSError, ValueError) as err:
                     entry["error"] = str(err)

@@ -46,11 +46,44 @@ class ObjectDrift:
 
 
 @dataclass(frozen=True)
+class SimcheckSummary:
+    """The figures of one check (they go to eval/metrics.json). Counts of bodies; ``stable_fraction`` over
+    the free ones (1.0 when there are none); penetrations at t=0, drifts in m, rotations in deg;
+    ``seconds_simulated``: simulated time; ``seconds``: wall time of the check."""
+
+    objects: int
+    free: int
+    fixed: int
+    stable: int
+    stable_fraction: float
+    fell_through: int
+    escaped: int
+    penetration_t0_max: float
+    penetration_t0_mean: float
+    drift_max: float
+    rotation_max_deg: float
+    seconds_simulated: float
+    shake: bool
+    seconds: float
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> SimcheckSummary:
+        return cls(**{f: d[f] for f in cls.__dataclass_fields__})
+
+    def numbers(self) -> dict[str, int | float]:
+        """The numeric figures (flags left out), for run-log metrics and task references."""
+        return {k: v for k, v in self.to_json().items() if isinstance(v, int | float) and not isinstance(v, bool)}
+
+
+@dataclass(frozen=True)
 class SimcheckResult:
     """The whole check; ``summary`` holds the figures that go to eval/metrics.json."""
 
     objects: tuple[ObjectDrift, ...]
-    summary: dict[str, Any]
+    summary: SimcheckSummary
     deepest_pair: tuple[str, str] | None = None
     config: dict[str, Any] = field(default_factory=dict)
 
@@ -58,7 +91,7 @@ class SimcheckResult:
         return {
             "format": "rescene-simcheck",
             "version": 1,
-            "summary": self.summary,
+            "summary": self.summary.to_json(),
             "deepest_pair_t0": list(self.deepest_pair) if self.deepest_pair else None,
             "unstable": [o.node for o in self.objects if o.kind == "free" and not o.stable],
             "objects": [asdict(o) for o in self.objects],
@@ -152,22 +185,22 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
         )
     free = [o for o in objects if o.kind == "free"]
     pens = [o.penetration_t0 for o in objects]
-    summary = {
-        "objects": len(objects),
-        "free": len(free),
-        "fixed": len(objects) - len(free),
-        "stable": sum(o.stable for o in free),
-        "stable_fraction": round(sum(o.stable for o in free) / len(free), 4) if free else 1.0,
-        "fell_through": sum(o.fell_through for o in free),
-        "escaped": sum(o.escaped for o in free),
-        "penetration_t0_max": round(max(pens, default=0.0), 6),
-        "penetration_t0_mean": round(float(np.mean(pens)) if pens else 0.0, 6),
-        "drift_max": round(max((o.translation for o in free), default=0.0), 6),
-        "rotation_max_deg": round(max((o.rotation_deg for o in free), default=0.0), 4),
-        "seconds_simulated": config.seconds,
-        "shake": config.shake,
-        "seconds": round(time.perf_counter() - started, 3),
-    }
+    summary = SimcheckSummary(
+        objects=len(objects),
+        free=len(free),
+        fixed=len(objects) - len(free),
+        stable=sum(o.stable for o in free),
+        stable_fraction=round(sum(o.stable for o in free) / len(free), 4) if free else 1.0,
+        fell_through=sum(o.fell_through for o in free),
+        escaped=sum(o.escaped for o in free),
+        penetration_t0_max=round(max(pens, default=0.0), 6),
+        penetration_t0_mean=round(float(np.mean(pens)) if pens else 0.0, 6),
+        drift_max=round(max((o.translation for o in free), default=0.0), 6),
+        rotation_max_deg=round(max((o.rotation_deg for o in free), default=0.0), 4),
+        seconds_simulated=config.seconds,
+        shake=config.shake,
+        seconds=round(time.perf_counter() - started, 3),
+    )
     deepest: tuple[str, str] | None = None
     if pair is not None:
         first, second = (str(model.body(int(model.geom_bodyid[g])).name or "world") for g in pair)
@@ -203,7 +236,7 @@ def draw_before_after(path: Path, result: SimcheckResult, motion: dict, shell: R
         ax.set_aspect("equal")
     s = result.summary
     fig.suptitle(
-        f"after {s['seconds_simulated']} s{' with shake' if s['shake'] else ''}: {s['stable']}/{s['free']} free "
+        f"after {s.seconds_simulated} s{' with shake' if s.shake else ''}: {s.stable}/{s.free} free "
         f"objects stable; hollow = before, filled = after; grey = mounted"
     )
     png = io.BytesIO()

@@ -14,6 +14,6 @@ def run(run_dir: str, scene: Ref, config: SimcheckConfig) -> Ref:
     run = RunPaths(run_dir)
     with executing(run_dir, Stage.SIMCHECK) as seg:
         result = simcheck_run(run_dir, config)
-        numbers = {k: v for k, v in result.summary.items() if isinstance(v, int | float) and not isinstance(v, bool)}
+        numbers = result.summary.numbers()
         seg.log("/metrics", {"stage": Stage.SIMCHECK, "metrics": numbers})
         return make_ref(run_dir, run.simcheck, "simcheck", numbers=numbers)

@@ -170,7 +170,7 @@ def test_a_base_becomes_the_hull_of_its_points(tmp_path):
     entry = report["objects"][0]["colliders_from_layout"]
     assert entry["completions"][0]["kind"] == "base" and entry["hollow_shell"] is None
     result = simcheck_run(run, SimcheckConfig())
-    assert result.objects[0].stable and result.summary["penetration_t0_max"] < 1e-3  # it stands on its base
+    assert result.objects[0].stable and result.summary.penetration_t0_max < 1e-3  # it stands on its base
 
 
 def test_cut_seat_removes_only_the_column_above_the_level():
@@ -283,5 +283,5 @@ def test_a_hollow_shelf_registered_into_its_wall_is_pulled_out_of_it_with_its_ba
             lowest_y = min(lowest_y, float((v @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])[:, 1].min()))
     assert lowest_y >= -2.0 - 1e-6  # the back panel and the base both stop at the wall's plane
     result = simcheck_run(run, SimcheckConfig())
-    assert result.summary["stable"] == result.summary["free"] == 2
-    assert result.summary["penetration_t0_max"] < 0.002
+    assert result.summary.stable == result.summary.free == 2
+    assert result.summary.penetration_t0_max < 0.002

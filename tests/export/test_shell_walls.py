@@ -51,5 +51,5 @@ def test_a_cabinet_in_the_inner_corner_does_not_start_inside_the_overshooting_wa
     config = ExportConfig(decomposition_cache=str(tmp_path / "cache"))
     export_scene(RunPaths(tmp_path).scene, [obj], L_ROOM, graph, [], config)
     check = simcheck_run(tmp_path, SimcheckConfig())
-    assert check.summary["penetration_t0_max"] < 0.002
-    assert check.summary["stable"] == 1
+    assert check.summary.penetration_t0_max < 0.002
+    assert check.summary.stable == 1

@@ -11,7 +11,7 @@ import trimesh
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
-from rescene_core.sim import SimcheckConfig, simcheck_run
+from rescene_core.sim import SimcheckConfig, SimcheckSummary, simcheck_run
 from tests.fixtures import ONE_WALL_SHELL
 
 pytest.importorskip("mujoco")
@@ -45,9 +45,10 @@ def test_stable_falling_and_penetrating_objects(run_dir):
     assert not falling.stable and falling.translation == pytest.approx(0.3, abs=0.02)
     assert by_node["obj_3_cabinet"].penetration_t0 == pytest.approx(0.01, abs=2e-3)
     s = result.summary
-    assert s["free"] == 3 and s["fell_through"] == 0 and s["escaped"] == 0
-    assert s["penetration_t0_max"] == pytest.approx(0.01, abs=2e-3)
+    assert s.free == 3 and s.fell_through == 0 and s.escaped == 0
+    assert s.penetration_t0_max == pytest.approx(0.01, abs=2e-3)
     doc = json.loads((run_dir / "sim/simcheck.json").read_text())
+    assert SimcheckSummary.from_json(doc["summary"]) == s  # the file's summary reads back to the same record
     assert "obj_2_cabinet" in doc["unstable"] and "obj_1_cabinet" not in doc["unstable"]
     assert (run_dir / "sim/before_after.png").stat().st_size > 0
 
