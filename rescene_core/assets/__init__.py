@@ -28,9 +28,9 @@ from rescene_core.assets.base import (
 )
 from rescene_core.config import AssetConfig
 from rescene_core.io import write_bytes_atomic
-from rescene_core.records import Asset, InstanceId, Missing, ViewChoice
+from rescene_core.records import Asset, InstanceId, Missing, Stage, ViewChoice
 
-STAGE = "asset"
+STAGE = Stage.ASSET
 
 __all__ = [
     "AssetBackend",
@@ -144,6 +144,8 @@ def load_asset(path: str | Path, instance: int) -> Asset:
     loaded = trimesh.load(str(path), process=False)
     extras = dict(getattr(loaded, "metadata", {}) or {}).get("rescene", {})
     mesh = loaded.to_geometry() if isinstance(loaded, trimesh.Scene) else loaded
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise ValueError(f"{path}: not a triangle mesh ({type(mesh).__name__})")
     return Asset(
         instance=InstanceId(int(instance)),
         vertices=np.asarray(mesh.vertices, dtype=np.float64),

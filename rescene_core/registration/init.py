@@ -70,7 +70,7 @@ def _prepare(points: NDArray[np.float64], voxel: float, config: RegistrationConf
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
     down = cloud.voxel_down_sample(voxel)
     down.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=config.normal_radius_voxels * voxel, max_nn=30))
-    feature = o3d.pipelines.registration.compute_fpfh_feature(
+    feature = o3d.pipelines.registration.compute_fpfh_feature(  # type: ignore[call-arg]  # Open3D stub omits indices=[] (all points)
         down, o3d.geometry.KDTreeSearchParamHybrid(radius=config.feature_radius_voxels * voxel, max_nn=100)
     )
     return down, feature

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core.config import RegistrationConfig
-from rescene_core.records import Asset, InstancePoints, Missing, Pose
+from rescene_core.records import Asset, InstancePoints, Missing, Pose, Stage
 from rescene_core.registration.candidates import initial_candidates
 from rescene_core.registration.diagnostics import CloudSummary, FinalRecord, PoseSummary, RegistrationDiagnostics
 from rescene_core.registration.fit import FitEvaluator
@@ -45,7 +45,7 @@ from rescene_core.registration.gates import (
 from rescene_core.registration.init import Normalisation
 from rescene_core.registration.refinement import refine_best
 
-STAGE = "registration"
+STAGE = Stage.REGISTRATION
 
 __all__ = [
     "degeneracy",
