@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+from uuid import UUID
 
 from prefect import flow, get_run_logger, unmapped
 from prefect.artifacts import create_progress_artifact, update_progress_artifact
@@ -30,8 +31,8 @@ from rescene_core.manifest import asset_cell, final_message, instance_row, now_i
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.runlog import Segment
-from rescene_core.stages.common import keyframes_of
 from rescene_core.stages.execution import capture_ref
+from rescene_core.stages.keyframes import keyframes_of
 from tasks import dag as T
 from tasks.common import retry_delays, vlm_slot
 from tasks.run import failure_reason, finish_run, instance_outcome, state_row, write_run_config
@@ -59,14 +60,17 @@ def rescene(
     verify_capture: str = "stamp",
     runner: str = "thread",
     address: str | None = None,
-) -> dict[str, Any]:
+) -> State[dict[str, Any]]:
     """Run ReScene on ``capture`` (a capture .zarr) into ``run_dir`` with ``config`` (defaults: the paper).
 
     ``verify_capture``: "stamp" checks the capture's identity stamp cheaply (sizes, files modified
     since it was written); "full" rehashes every byte against it (tasks/common.py ``capture_ref``).
     ``runner``: where the tasks run: "thread" (this process), "dask" or "ray" (a cluster at ``address``,
     or a local one when it is None); a deployment run chooses it with these parameters, and the work
-    then runs as a subflow on that task runner (docs/orchestration.md)."""
+    then runs as a subflow on that task runner (docs/orchestration.md).
+
+    Returns the run's final state, Completed or Failed, whose data (the flow's result) is the summary:
+    run_dir, state, instances, missing, failed_instances."""
     wanted = task_runner(runner, address)
     ctx = FlowRunContext.get()
     if wanted is not None and not (ctx and type(ctx.task_runner) is type(wanted)):
@@ -108,6 +112,7 @@ def rescene(
     frame_failures: list[str] = []
     scene_error: str | None = None
     progress_id = create_progress_artifact(0.0, description=f"instances of {cap.scene_id} finished")
+    assert isinstance(progress_id, UUID)  # a sync flow gets the id, not the async variant's coroutine
 
     try:
         shell_f = shell_t.submit(str(run.root), capture_in, config.shell)
@@ -123,7 +128,7 @@ def rescene(
             view_refs = []
         assets = asset_t.map(rd, cr, view_refs, unmapped(config.assets))
         poses = pose_t.map(rd, cr, assets, unmapped(config.registration))
-        frames = keyframes_of(keyframes_f.result())
+        frames = keyframes_of(str(run.root), keyframes_f.result())
         preds = relations_t.map(  # every VLM request holds a slot of the shared concurrency limit
             rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph), request_slot=unmapped(vlm_slot)
         )

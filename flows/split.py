@@ -23,14 +23,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from uuid import UUID
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 from prefect import flow, get_run_logger
 from prefect.artifacts import create_markdown_artifact
 from prefect.client.orchestration import get_client
+from prefect.client.schemas.objects import FlowRun
 from prefect.deployments import run_deployment
-from prefect.states import Completed, Failed
+from prefect.states import Completed, Failed, State
 
 from rescene_core.capture.identity import capture_identity
 from rescene_core.config import RunConfig
@@ -187,10 +189,10 @@ def write_summary(out: Path, split_name: str, rows: list[dict[str, Any]]) -> tup
     return Path(parquet), Path(markdown)
 
 
-def _wait_final(flow_run_ids: list[Any], poll_interval_s: float, deadline: float) -> dict[Any, Any]:
+def _wait_final(flow_run_ids: list[UUID], poll_interval_s: float, deadline: float) -> dict[UUID, State]:
     """Poll the API until every flow run is final or the deadline (monotonic) passes; returns the
     final states (runs not final by then are absent)."""
-    final: dict[Any, Any] = {}
+    final: dict[UUID, State] = {}
     with get_client(sync_client=True) as client:
         while True:
             for run_id in flow_run_ids:
@@ -249,10 +251,11 @@ def rescene_split(
         if deployment is None:  # in this process, one scene after the other
             from flows.scene import rescene
 
-            state = rescene(capture=str(entry.capture), run_dir=str(run_dir), config=config, return_state=True)
-            rows[entry.name] = _row(entry, run_dir, state.name or state.type.value, False, None, state.message)
+            local = rescene(capture=str(entry.capture), run_dir=str(run_dir), config=config, return_state=True)
+            rows[entry.name] = _row(entry, run_dir, local.name or local.type.value, False, None, local.message)
             continue
         flow_run = run_deployment(name=deployment, parameters=params, timeout=0, as_subflow=True)
+        assert isinstance(flow_run, FlowRun)  # a sync flow gets the flow run, not the async variant's coroutine
         logger.info("submitted %s as flow run %s", entry.name, flow_run.id)
         pending.append((entry, run_dir, flow_run))
     if pending:
@@ -263,7 +266,9 @@ def rescene_split(
                 message = f"not final after {timeout_s:.0f} s (flow run {flow_run.id} goes on; rerun the split later)"
                 rows[entry.name] = _row(entry, run_dir, "TimedOut", False, str(flow_run.id), message)
             else:
-                rows[entry.name] = _row(entry, run_dir, state.name, False, str(flow_run.id), state.message)
+                rows[entry.name] = _row(
+                    entry, run_dir, state.name or state.type.value, False, str(flow_run.id), state.message
+                )
     ordered = [rows[e.name] for e in entries]
     parquet, markdown = write_summary(out, split_name, ordered)
     create_markdown_artifact(summary_markdown(split_name, ordered), key="rescene-split-summary")

@@ -18,7 +18,7 @@ from typing import Any
 
 from rescene_core.config import RunConfig
 from rescene_core.io import write_bytes_atomic
-from rescene_core.records import Missing, Ref
+from rescene_core.records import Missing, Ref, Stage
 
 FORMAT = "rescene-run"
 VERSION = 1
@@ -110,7 +110,7 @@ def build_manifest(
     failed: list[int],
     state: str,
     message: str | None,
-    stage_versions: Mapping[str, str],
+    stage_versions: Mapping[Stage, str],
 ) -> dict[str, Any]:
     """The manifest of a run (docs/run-directory.md lists its fields). ``stage_versions``: the code
     version of each stage (source hashes), next to the tree's ``git describe``."""
