@@ -66,8 +66,8 @@ format: $(STAMP) ## apply ruff formatting and safe fixes
 	$(VENV)/bin/ruff check --fix .
 	$(VENV)/bin/ruff format .
 
-typecheck: $(STAMP) ## mypy on the library (settings in pyproject.toml [tool.mypy])
-	$(PY) -m mypy rescene_core
+typecheck: $(STAMP) ## mypy on rescene_core, tasks and flows (settings and files in pyproject.toml [tool.mypy])
+	$(PY) -m mypy
 
 check: lint typecheck test ## lint + type check + the whole test suite
 
