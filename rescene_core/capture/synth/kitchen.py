@@ -78,7 +78,8 @@ class KitchenLayout(Layout):
         return self.against_wall(members, wall_ids=[wall.id], tries=30) or []
 
     def wall_cabinets_over(self, run: list[Placed], bottom: float) -> list[Placed]:
-        """One wall cabinet hung over each base unit of ``run`` (one unit is left without: the hood's place)."""
+        """One wall cabinet hung over each base unit of ``run``, its bottom at ``bottom`` (m); of three units,
+        one is left without (the hood's place)."""
         wall = self.kitchen_wall
         p0, u, _, _, _ = self._wall_frame(wall)
         skip = int(self.rng.integers(len(run))) if len(run) >= 3 else -1
@@ -100,7 +101,7 @@ class KitchenLayout(Layout):
     def island_facing(self, run: list[Placed], tries: int = 20) -> Placed | None:
         """The island in front of the run across the aisle, its doors (+y) toward the run."""
         wall = self.kitchen_wall
-        p0, u, n, length, yaw = self._wall_frame(wall)
+        p0, u, n, _, yaw = self._wall_frame(wall)
         along = [float((c.world_from_object[:2, 3] - p0) @ u) for c in run]
         depth = max(c.model.size[1] for c in run)
         centre = float(np.mean(along))
