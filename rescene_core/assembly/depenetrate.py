@@ -121,12 +121,20 @@ def depenetrate(state: LayoutState, world: CollisionWorld, stage: str = "depenet
                     continue
             was_outside = is_outside(state, i)
             state.move(
-                i, translation(move), stage, "contact-reverse displacement", iteration=iteration, partners=partners[i]
+                i,
+                translation(move),
+                stage,
+                "contact-reverse displacement",
+                bounded=False,
+                iteration=iteration,
+                partners=partners[i],
             )
             if not was_outside and is_outside(state, i):
                 shift = fit_translation(containment_footprint(state, i), containment_region(state, i))
                 if shift is not None:
-                    state.move(i, translation([shift[0], shift[1], 0.0]), stage, "keep inside after push")
+                    state.move(
+                        i, translation([shift[0], shift[1], 0.0]), stage, "keep inside after push", bounded=False
+                    )
                     if np.linalg.norm(move[:2] + shift) < 0.5 * np.linalg.norm(move[:2]):
                         blocked.add(i)
     pairs = world.colliding_pairs({i: state.pose(i) for i in state.objects}, skip=forest.related)

@@ -198,6 +198,11 @@ def outside_repair(state: LayoutState, stage: str = "outside repair") -> None:
     for i in order:
         if i in state.unfit or not is_outside(state, i):
             continue
+        edge = state.forest.edges.get(i)
+        if edge is not None and not isinstance(edge.parent, Root) and is_outside(state, InstanceId(edge.parent)):
+            # its parent was left outside (the correction bound): it stays on its parent
+            state.skip(i, stage, f"its parent {int(edge.parent)} is outside the room too; it stays on it")
+            continue
         shift = fit_translation(containment_footprint(state, i), containment_region(state, i))
         if shift is None:
             state.skip(i, stage, "footprint is larger than the room; left in place")

@@ -3,6 +3,12 @@
 Containment works on the floor polygon (xy, metres). ``fit_translation`` is the one routine that moves a
 footprint into a polygon: the smallest translation t with ``footprint + t`` inside, found exactly as the
 point of the Minkowski erosion ``polygon ⊖ footprint`` nearest to the origin.
+
+A shell that records which edges of its floor polygon no wall was observed on (``RoomShell.edge_walls``)
+has open sides: the floor was not seen to end there. ``Room.polygon``, the region containment keeps objects
+in, then reaches ``OPEN_SIDE_REACH`` beyond each open edge (except behind an observed wall), so no repair
+pushes an object back across floor that was simply not observed; ``Room.floor_extent`` is the shell's
+polygon itself.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ import shapely
 from numpy.typing import NDArray
 from shapely.affinity import translate
 from shapely.geometry import Point, Polygon
-from shapely.ops import nearest_points
+from shapely.ops import nearest_points, unary_union
 
 from rescene_core.assembly.objects import AssemblyError
 from rescene_core.records import RoomShell, WallPlane
@@ -41,9 +47,16 @@ class Wall:
         return (np.asarray(points)[:, :2] - self.start) @ self.tangent[:2]
 
 
+OPEN_SIDE_REACH = 50.0
+"""How far (m) beyond an open edge of the floor polygon the containment region reaches: further than any
+object stands from the floor seen around it."""
+
+
 @dataclass(frozen=True)
 class Room:
-    """Validated room geometry. polygon is None when the shell has no usable floor polygon."""
+    """Validated room geometry. polygon: the region containment keeps footprints in (the floor polygon,
+    reaching across its open edges); None when the shell has no usable floor polygon. floor_extent: the
+    shell's floor polygon (None likewise)."""
 
     shell: RoomShell
     up: NDArray[np.float64]
@@ -51,6 +64,7 @@ class Room:
     walls: tuple[Wall, ...]
     polygon: Polygon | None
     notes: tuple[str, ...]
+    floor_extent: Polygon | None = None
 
     def floor_distance(self, points: NDArray) -> NDArray[np.float64]:
         """Signed distance (m) of world points [n, 3] above the floor plane."""
@@ -76,6 +90,39 @@ def _wall(w: WallPlane) -> Wall | None:
     scale = np.linalg.norm(n)
     tangent = np.array([seg[0], seg[1], 0.0]) / length
     return Wall(int(w.id), n / scale, float(w.plane.offset) / scale, np.array([x0, y0], float), length, tangent)
+
+
+def open_side_region(polygon: Polygon, shell: RoomShell, walls: tuple[Wall, ...]) -> Polygon:
+    """``polygon`` (the shell's floor polygon, valid) grown ``OPEN_SIDE_REACH`` outwards across each edge
+    without an observed wall (and the wedge outside a corner between two such edges), none of the growth
+    behind an observed wall's segment; ``polygon`` itself when every edge is walled."""
+    ring = [np.asarray(p, np.float64) for p in shell.floor_polygon]
+    tags = shell.edge_walls
+    if tags is None or len(tags) != len(ring) or all(t is not None for t in tags):
+        return polygon
+    ccw = Polygon(ring).exterior.is_ccw
+    across = []
+    for k, tag in enumerate(tags):
+        a, b = ring[k], ring[(k + 1) % len(ring)]
+        d = (b - a) / max(float(np.linalg.norm(b - a)), 1e-12)
+        out = np.array([d[1], -d[0]]) if ccw else np.array([-d[1], d[0]])
+        if tag is None:
+            across.append(Polygon([a, b, b + OPEN_SIDE_REACH * out, a + OPEN_SIDE_REACH * out]))
+        prev = ring[k - 1]
+        turn = float((a - prev)[0] * d[1] - (a - prev)[1] * d[0]) * (1.0 if ccw else -1.0)
+        if tag is None and tags[k - 1] is None and turn > 0:  # the wedge outside a convex corner
+            d_in = (a - prev) / max(float(np.linalg.norm(a - prev)), 1e-12)
+            across.append(Polygon([a, a + OPEN_SIDE_REACH * d_in, a - OPEN_SIDE_REACH * d]))
+    behind = []
+    for w in walls:
+        start, end = w.start, w.start + w.length * w.tangent[:2]
+        back = -OPEN_SIDE_REACH * w.normal[:2]
+        behind.append(Polygon([start, end, end + back, start + back]))
+    grown = unary_union([g for g in across if g.is_valid and g.area > 0]).difference(unary_union(behind))
+    region = unary_union([polygon, grown])
+    if not isinstance(region, Polygon):  # the part the floor polygon belongs to
+        region = max(getattr(region, "geoms", []), key=lambda g: g.intersection(polygon).area)
+    return region
 
 
 def room_from_shell(shell: RoomShell) -> Room:
@@ -112,7 +159,14 @@ def room_from_shell(shell: RoomShell) -> Room:
             polygon = poly
     if polygon is None:
         notes.append("room has no usable floor polygon: containment repairs are skipped")
-    return Room(shell, up, float(shell.floor.offset) / scale, tuple(walls), polygon, tuple(notes))
+    region = polygon
+    if polygon is not None and shell.open_edges() and Polygon(shell.floor_polygon).is_valid:
+        region = open_side_region(polygon, shell, tuple(walls))
+        notes.append(
+            f"floor polygon edges {list(shell.open_edges())} have no observed wall: containment reaches "
+            f"{OPEN_SIDE_REACH} m across them"
+        )
+    return Room(shell, up, float(shell.floor.offset) / scale, tuple(walls), region, tuple(notes), polygon)
 
 
 def fit_translation(footprint: Polygon, region: Polygon, max_segment: float = 0.05) -> NDArray[np.float64] | None:

@@ -1,4 +1,12 @@
-"""Mutable working state of one attachment run: per-object adjustments Delta T_i and the operation log."""
+"""Mutable working state of one attachment run: per-object adjustments Delta T_i and the operation log.
+
+The correction bound (``AttachmentConfig.max_correction_m``): an object's own horizontal move is that of its
+registered bounding-box centre under Delta T_i beyond where its parent's Delta T carries that point (for an
+object on the floor or a wall: its whole horizontal move). ``move`` and ``set_delta`` cut a correction that
+would take it past the bound (or further past it) to the longest part of the correction that does not, and
+record ``bound_clipped`` (wanted and taken metres) in the operation. An object in collision is not bounded:
+depenetration, which only moves objects in collision with others, passes ``bounded=False``, and an object
+reaching behind an observed wall (``through_wall``) is moved out in full."""
 
 from __future__ import annotations
 
@@ -15,8 +23,9 @@ from rescene_core.assembly.graph import Forest
 from rescene_core.assembly.objects import AssemblyObject, footprint
 from rescene_core.assembly.operations import Operation
 from rescene_core.assembly.room import Room
+from rescene_core.assembly.transforms import translation
 from rescene_core.config import AttachmentConfig
-from rescene_core.records import Completion, InstanceId
+from rescene_core.records import Completion, InstanceId, Root
 
 
 @dataclass
@@ -46,6 +55,7 @@ class LayoutState:
     lower part), with the reason: they get a base at their final pose (completions.add_bases)."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
+    _anchor: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for i in self.objects:
@@ -95,8 +105,80 @@ class LayoutState:
         v = self.vertices(i)
         return 0.5 * (v.min(axis=0) + v.max(axis=0))
 
-    def move(self, i: InstanceId, correction: NDArray, stage: str, rule: str, **info: Any) -> None:
-        """Apply the world-frame ``correction`` [4, 4] to object i and all its descendants, and log it."""
+    def own_move(self, i: InstanceId, delta: NDArray | None = None) -> NDArray[np.float64]:
+        """Horizontal move [3] (m) of object i's registered bounding-box centre under ``delta`` (default: its
+        current Delta T_i) beyond where its parent's Delta T carries that point."""
+        anchor = self._anchor.get(i)
+        if anchor is None:
+            v = self.objects[i].world_vertices()
+            anchor = self._anchor[i] = np.append(0.5 * (v.min(axis=0) + v.max(axis=0)), 1.0)
+        carried = self.carried(i)
+        own = ((self.delta[i] if delta is None else np.asarray(delta)) @ anchor - carried @ anchor)[:3]
+        up = self.room.up
+        return own - float(own @ up) * up
+
+    def carried(self, i: InstanceId) -> NDArray[np.float64]:
+        """The Delta T [4, 4] object i's parent carries it by (identity on the floor or a wall)."""
+        edge = self.forest.edges.get(i)
+        parent = None if edge is None or isinstance(edge.parent, Root) else InstanceId(int(edge.parent))
+        return self.delta[parent] if parent is not None and parent in self.delta else np.eye(4)
+
+    def through_wall(self, i: InstanceId, verts: NDArray | None = None) -> bool:
+        """Whether object i (its world vertices ``verts`` [v, 3], default its current ones) reaches more than
+        ``wall_collision_margin`` behind an observed wall within the wall's segment: in collision with it."""
+        verts = self.vertices(i) if verts is None else np.asarray(verts)
+        margin = self.config.wall_collision_margin
+        for wall in self.room.walls:
+            behind = wall.distance(verts) < -margin
+            if behind.any():
+                along = wall.along(verts[behind])
+                if bool(((along >= 0.0) & (along <= wall.length)).any()):
+                    return True
+        return False
+
+    def bounded(self, i: InstanceId, correction: NDArray) -> tuple[NDArray[np.float64], dict[str, float] | None]:
+        """``correction`` [4, 4] (world frame) of object i cut to the correction bound (module docstring), and
+        what the cut took away (None: nothing)."""
+        limit = self.config.max_correction_m
+        correction = np.asarray(correction, np.float64)
+        if limit is None or self.through_wall(i):
+            return correction, None
+        before = self.own_move(i)
+        after = self.own_move(i, correction @ self.delta[i])
+        step = after - before
+        reach = max(limit, float(np.linalg.norm(before)))
+        if float(np.linalg.norm(after)) <= reach + 1e-9:
+            return correction, None
+        # the largest s in [0, 1] with |before + s step| <= reach
+        a, b, c = float(step @ step), 2.0 * float(before @ step), float(before @ before) - reach**2
+        s = float(np.clip((-b + np.sqrt(max(b * b - 4 * a * c, 0.0))) / (2 * a), 0.0, 1.0)) if a > 0 else 0.0
+        clip = {
+            "wanted_m": float(np.linalg.norm(step)),
+            "taken_m": s * float(np.linalg.norm(step)),
+            "max_correction_m": float(limit),
+        }
+        return translation(-(1.0 - s) * step) @ correction, clip
+
+    def move(
+        self, i: InstanceId, correction: NDArray, stage: str, rule: str, bounded: bool = True, **info: Any
+    ) -> None:
+        """Apply the world-frame ``correction`` [4, 4] to object i and all its descendants, and log it.
+        bounded: cut the correction to the correction bound (module docstring); False for moves that
+        separate objects in collision."""
+        if bounded:
+            correction, clip = self.bounded(i, correction)
+            if clip is not None:
+                info["bound_clipped"] = clip
+                if np.allclose(correction, np.eye(4), atol=1e-9):
+                    self.log(
+                        i,
+                        stage,
+                        "skip",
+                        reason=f"{rule}: the object has already moved max_correction_m = {clip['max_correction_m']} "
+                        f"m of its own; the {clip['wanted_m']:.3f} m move is not taken",
+                        **info,
+                    )
+                    return
         if np.allclose(correction, np.eye(4), atol=1e-12):
             return
         moved = self.forest.subtree(i)
@@ -122,8 +204,18 @@ class LayoutState:
                 self._version[j] += 1
 
     def set_delta(self, i: InstanceId, delta: NDArray, stage: str, rule: str, **info: Any) -> None:
-        """Set Delta T_i directly (propagation), logging the change."""
-        self.delta[i] = np.asarray(delta, dtype=np.float64)
+        """Set Delta T_i directly (propagation), logging the change; the object's own horizontal move is cut
+        to the correction bound (module docstring)."""
+        delta = np.asarray(delta, dtype=np.float64)
+        limit = self.config.max_correction_m
+        carried = self.objects[i].world_vertices(self.carried(i) @ self.objects[i].world_from_asset)
+        if limit is not None and not self.through_wall(i, carried):
+            own = self.own_move(i, delta)
+            length = float(np.linalg.norm(own))
+            if length > limit + 1e-9:
+                delta = translation(-(1.0 - limit / length) * own) @ delta
+                info["bound_clipped"] = {"wanted_m": length, "taken_m": float(limit), "max_correction_m": float(limit)}
+        self.delta[i] = delta
         self._version[i] += 1
         self.log(i, stage, rule, **info)
 

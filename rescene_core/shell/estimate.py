@@ -11,6 +11,14 @@ behind them (furniture faces have the room behind them). The floor polygon is th
 walls' inner half-planes with the convex hull of the floor points when the room is convex (the floor
 points lie inside that intersection), which also closes an open side along the floor's edge; otherwise the
 floor's concave hull with the region behind each wall segment cut away.
+
+That polygon is the floor that was seen. A capture that walks one side of a room (a head-mounted or phone
+camera looking down) sees the floor in patches; the furniture and the cameras stand on floor beyond them.
+Each edge of the seen polygon that lies on no observed wall is open, and across the open edges the floor's
+extent grows to the convex hull of the seen floor, every object's footprint (its points seen from above)
+and the cameras' positions, except behind an observed wall. ``floor_polygon`` is that extent,
+``seen_floor_polygon`` the seen floor, and ``edge_walls`` names the wall under each edge of the extent (None:
+open, nothing was seen to bound the room there).
 """
 
 from __future__ import annotations
@@ -267,6 +275,125 @@ def _polygon(floor_xy: NDArray[np.float64], all_xy: NDArray[np.float64], walls: 
     return tuple((float(x), float(y)) for x, y in list(poly.exterior.coords)[:-1])
 
 
+def _split_at_wall_ends(ring: list[NDArray[np.float64]], walls: list[_Wall], config: ShellConfig) -> list:
+    """The polygon's vertices [v][2] with a vertex added where an observed wall segment ends on an edge (more
+    than ``polygon_snap_distance`` from its corners), so an edge is walled or open along its whole length."""
+    tol = 2 * config.ransac_distance
+    out: list[NDArray[np.float64]] = []
+    for k, a in enumerate(ring):
+        b = ring[(k + 1) % len(ring)]
+        out.append(a)
+        d = b - a
+        length = float(np.linalg.norm(d))
+        if length <= 2 * config.polygon_snap_distance:
+            continue
+        cuts = []
+        for w in walls:
+            for e in w.endpoints():
+                t = float((e - a) @ d) / length**2
+                off = abs(float(d[0] * (e - a)[1] - d[1] * (e - a)[0])) / length
+                if off <= tol and config.polygon_snap_distance < t * length < length - config.polygon_snap_distance:
+                    cuts.append(t)
+        out += [a + t * d for t in sorted(cuts)]
+    return out
+
+
+def _edge_walls(ring: list[NDArray[np.float64]], walls: list[_Wall], config: ShellConfig) -> list[int | None]:
+    """Per edge k (vertex k to k + 1) the index of the wall it lies on: both ends within ``2 ransac_distance``
+    of the wall's line and its middle within the wall's segment grown by ``polygon_snap_distance`` (segments
+    end at their points' 1st and 99th percentiles, a little short of the corners); None: no wall, an open side."""
+    tol = 2 * config.ransac_distance
+    tags: list[int | None] = []
+    for k, a in enumerate(ring):
+        b = ring[(k + 1) % len(ring)]
+        mid = 0.5 * (a + b)
+        best: tuple[float, int] | None = None
+        for j, w in enumerate(walls):
+            off = max(abs(float(p @ w.normal) + w.offset) for p in (a, b))
+            s = float(mid @ w.tangent)
+            inside = w.s_range[0] - config.polygon_snap_distance <= s <= w.s_range[1] + config.polygon_snap_distance
+            if off <= tol and inside and (best is None or off < best[0]):
+                best = (off, j)
+        tags.append(None if best is None else best[1])
+    return tags
+
+
+def _beyond(a: NDArray, b: NDArray, reach: float) -> Polygon:
+    """The band ``reach`` m deep outwards from the edge a -> b of a counter-clockwise polygon."""
+    d = (b - a) / max(float(np.linalg.norm(b - a)), 1e-12)
+    out = np.array([d[1], -d[0]])
+    return Polygon([a, b, b + reach * out, a + reach * out])
+
+
+FOOTPRINT_STRAY = 0.1
+"""An object's point lying beyond the 1st-99th percentile range of its points (per horizontal axis) by more
+than this share of that range is a stray (segmentation bleed), left out of its footprint."""
+
+
+def _footprints(capture: Capture, points: NDArray[np.float64], point_ids: NDArray) -> list[Polygon]:
+    """Each object's footprint: the convex hull of its points' (x, y), strays left out (``FOOTPRINT_STRAY``).
+    Every object, on the floor, on another object or on a wall, stands over the room's floor."""
+    out = []
+    for inst in capture.instances:
+        if inst.structural:
+            continue
+        xy = points[point_ids == int(inst.id), :2]
+        if len(xy) < 3:
+            continue
+        lo, hi = np.percentile(xy, 1, axis=0), np.percentile(xy, 99, axis=0)
+        lo, hi = lo - FOOTPRINT_STRAY * (hi - lo), hi + FOOTPRINT_STRAY * (hi - lo)
+        xy = xy[((xy >= lo) & (xy <= hi)).all(axis=1)]
+        hull = MultiPoint(xy).convex_hull if len(xy) >= 3 else None
+        if isinstance(hull, Polygon) and hull.area > 0:
+            out.append(hull)
+    return out
+
+
+def _extent(
+    seen: tuple[tuple[float, float], ...],
+    walls: list[_Wall],
+    footprints: list[Polygon],
+    cams_xy: NDArray[np.float64],
+    config: ShellConfig,
+) -> tuple[tuple[tuple[float, float], ...], list[int | None]]:
+    """The floor's extent (counter-clockwise vertices) and its edges' walls (``_edge_walls``): the seen floor,
+    grown across its open edges to the convex hull of the seen floor, the object ``footprints`` and the
+    cameras' positions ``cams_xy`` [k, 2], except where it lies behind an observed wall segment. A room whose
+    every side is walled keeps the seen floor as it is."""
+    ring = _split_at_wall_ends([np.asarray(p, np.float64) for p in seen], walls, config)
+    tags = _edge_walls(ring, walls, config)
+    if all(t is not None for t in tags):
+        return tuple((float(x), float(y)) for x, y in ring), tags
+    seen_poly = Polygon(ring)
+    hull = unary_union([seen_poly, *footprints, MultiPoint(cams_xy) if len(cams_xy) else Polygon()]).convex_hull
+    reach = float(np.linalg.norm(np.subtract(*np.reshape(hull.bounds, (2, 2))))) + 1.0
+    across = [_beyond(ring[k], ring[(k + 1) % len(ring)], reach) for k, t in enumerate(tags) if t is None]
+    for k, t in enumerate(tags):  # the wedge outside a convex corner between two open edges
+        v, prev, nxt = ring[k], ring[k - 1], ring[(k + 1) % len(ring)]
+        turn = (v - prev)[0] * (nxt - v)[1] - (v - prev)[1] * (nxt - v)[0]
+        if t is None and tags[k - 1] is None and turn > 0:
+            d_in = (v - prev) / max(float(np.linalg.norm(v - prev)), 1e-12)
+            d_out = (v - nxt) / max(float(np.linalg.norm(v - nxt)), 1e-12)
+            across.append(Polygon([v, v + reach * d_in, v + reach * d_out]))
+    behind = []
+    for w in walls:  # a wall's back, over its segment grown by the snap distance
+        a, b = w.endpoints()
+        a, b = a - config.polygon_snap_distance * w.tangent, b + config.polygon_snap_distance * w.tangent
+        behind.append(Polygon([a, b, b - reach * w.normal, a - reach * w.normal]))
+    grown = hull.intersection(unary_union(across)).difference(unary_union(behind))
+    extent = _largest(unary_union([seen_poly, grown]).buffer(0)) or seen_poly
+    eps = config.polygon_sliver
+    opened = _largest(extent.buffer(-eps, join_style="mitre").buffer(eps, join_style="mitre"))
+    if opened is not None and seen_poly.difference(opened).area <= eps * seen_poly.length:
+        extent = opened  # (the opening of the seen floor alone was done; it may shave a mitre's tip)
+    extent = _largest(extent.simplify(config.polygon_simplify)) or seen_poly
+    # no zero-width spike where the growth meets the seen floor's outline, no collinear vertex
+    extent = _largest(extent.buffer(-1e-6, join_style="mitre").buffer(1e-6, join_style="mitre")) or extent
+    extent = orient(shapely.simplify(extent, 1e-6), 1.0)
+    ring = _split_at_wall_ends([np.asarray(p, np.float64) for p in list(extent.exterior.coords)[:-1]], walls, config)
+    return tuple((float(x), float(y)) for x, y in ring), _edge_walls(ring, walls, config)
+
+
 def estimate_shell(capture: Capture, config: ShellConfig | None = None) -> RoomShell:
     """The room shell of a capture (see the module docstring). Raises ShellError when there are no points."""
     config = config or ShellConfig()
@@ -320,12 +447,20 @@ def _estimate_shell(capture: Capture, config: ShellConfig) -> RoomShell:
         outline_xy = np.concatenate(
             [floor_xy, _downsample(points[np.isin(point_ids, wall_ids)], config.sample_voxel)[:, :2]]
         )
-    polygon = _polygon(outline_xy, points[:, :2], walls, config)
+    seen = _polygon(outline_xy, points[:, :2], walls, config)
+    polygon, edge_walls = _extent(seen, walls, _footprints(capture, points, point_ids), cams[:, :2], config)
 
     ceiling_pts = points[np.isin(point_ids, by_label.get("ceiling", []))]
     ceiling = float(np.median(ceiling_pts[:, 2]) - floor_z) if len(ceiling_pts) else None
     log.info(
-        "room shell from %s: floor z=%.3f, %d walls, %d polygon vertices", source, floor_z, len(walls), len(polygon)
+        "room shell from %s: floor z=%.3f, %d walls, %d polygon vertices, %d open edges, floor seen %.1f of %.1f m^2",
+        source,
+        floor_z,
+        len(walls),
+        len(polygon),
+        sum(t is None for t in edge_walls),
+        Polygon(seen).area,
+        Polygon(polygon).area,
     )
     return RoomShell(
         floor=Plane((0.0, 0.0, 1.0), -floor_z),
@@ -339,4 +474,6 @@ def _estimate_shell(capture: Capture, config: ShellConfig) -> RoomShell:
         ),
         floor_polygon=polygon,
         ceiling_height=ceiling,
+        edge_walls=tuple(edge_walls),
+        seen_floor_polygon=seen,
     )

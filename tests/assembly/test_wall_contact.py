@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 import trimesh
 
 from rescene_core.assembly import AssemblyObject, attach
@@ -118,10 +119,20 @@ def test_points_far_from_the_wall_contradict_the_edge_and_keep_the_registered_po
     np.testing.assert_allclose(pose, objects[InstanceId(1)].world_from_asset, atol=1e-9)
     skips = [op for op in layout.operations if op["stage"] == "wall attachment" and op["rule"] == "skip"]
     assert len(skips) == 1 and "contradict the mounts-on wall edge" in skips[0]["reason"]
-    # without the check the wall rule pulls it 1.2 m onto the wall
-    layout = attach(objects, graph, shell, AttachmentConfig(dual_attachment=False, wall_points_max_gap=None))
+    # without the check (and without the correction bound) the wall rule pulls it 1.2 m onto the wall
+    cfg = AttachmentConfig(dual_attachment=False, wall_points_max_gap=None, max_correction_m=None)
+    layout = attach(objects, graph, shell, cfg)
     pulled = objects[InstanceId(1)].world_vertices(layout.world_from_asset[InstanceId(1)])
     assert pulled[:, 1].min() < 0.05
+    # the correction bound alone cuts that pull to max_correction_m and says so
+    cfg = AttachmentConfig(dual_attachment=False, wall_points_max_gap=None, stop_after="relations")
+    layout = attach(objects, graph, shell, cfg)
+    registered = objects[InstanceId(1)].world_vertices()
+    cut = objects[InstanceId(1)].world_vertices(layout.world_from_asset[InstanceId(1)])
+    centre_move = 0.5 * (cut.min(0) + cut.max(0)) - 0.5 * (registered.min(0) + registered.max(0))
+    assert np.linalg.norm(centre_move[:2]) == pytest.approx(cfg.max_correction_m, abs=1e-6)
+    (op,) = [op for op in layout.operations if op["stage"] == "wall attachment" and "bound_clipped" in op]
+    assert op["bound_clipped"]["wanted_m"] > 0.85 and op["bound_clipped"]["taken_m"] == pytest.approx(0.5)
 
 
 def test_objects_without_points_keep_the_face_direction_rule():
