@@ -25,9 +25,9 @@ from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
 from rescene_core.runlog import merge_segments
-from rescene_core.stages.common import keyframes_of
 from rescene_core.stages.dag import DAG, StageSpec
 from rescene_core.stages.execution import capture_ref
+from rescene_core.stages.keyframes import keyframes_of
 
 log = logging.getLogger(__name__)
 
@@ -124,7 +124,7 @@ def _gather(stage: Stage, values: dict[str, Any], failed: list[Missing]) -> None
         explicit = [p.missing for p in values["poses"] if p.missing is not None]
         values["missing"] = sorted(failed + explicit, key=lambda m: m.instance)
     elif stage is Stage.KEYFRAMES:
-        values["frames"] = keyframes_of(values["keyframes"])
+        values["frames"] = keyframes_of(values["run_dir"], values["keyframes"])
 
 
 def _result(

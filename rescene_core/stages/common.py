@@ -1,4 +1,4 @@
-"""Readers shared by the scene-level stage bodies: a run's room shell, key frames and placed objects from their references."""
+"""Readers shared by the scene-level stage bodies: a run's room shell and placed objects from their references."""
 
 from __future__ import annotations
 
@@ -16,11 +16,6 @@ from rescene_core.stages.asset import load_asset_ref
 def load_shell(run_dir: str | Path, ref: Ref) -> RoomShell:
     """The RoomShell behind a shell reference (shell.json)."""
     return RoomShell.from_json(read_json(Path(run_dir) / ref.path))
-
-
-def keyframes_of(ref: Ref) -> list[int]:
-    """The key frames listed by a key-frame reference (its ``detail["frames"]``)."""
-    return [int(t) for t in ref.detail["frames"]]
 
 
 def placed_objects(run_dir: str | Path, cap: Capture, assets: list[Ref], poses: list[Ref]) -> list[SceneObject]:

@@ -17,6 +17,7 @@ import numpy as np
 import trimesh
 
 from rescene_core.capture import CaptureArrays, points_to_csr, write_capture
+from rescene_core.hierview import KeyFrames
 from rescene_core.io import write_json_atomic
 from rescene_core.records import (
     Asset,
@@ -100,17 +101,11 @@ def select_views(capture, config, instance_ids):
     return out
 
 
-@dataclass(frozen=True)
-class FakeKeyFrames:
-    frames: tuple[int, ...]
-
-    def to_json(self) -> dict[str, Any]:
-        return {"frames": list(self.frames), "fallback": False}
-
-
 def select_keyframes(capture, config):
     _count("keyframes")
-    return FakeKeyFrames((0, capture.num_frames - 1))
+    frames = (0, capture.num_frames - 1)
+    n = capture.num_frames
+    return KeyFrames(frames, (1, 1), 0.05, False, tuple(range(n)), 2, 2, 2, (1.0,) * n, (0,) * n)
 
 
 def generate_asset(capture, view, config):

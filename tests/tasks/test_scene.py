@@ -23,8 +23,8 @@ from rescene_core.io import hash_file
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Stage
 from rescene_core.stages import calls as stages
-from rescene_core.stages.common import keyframes_of
 from rescene_core.stages.execution import TransientStageError
+from rescene_core.stages.keyframes import keyframes_of
 from tasks import dag as T
 from tasks.dag import generate_asset, register_instance, select_views
 
@@ -66,7 +66,7 @@ def test_shell_and_keyframes(fake_stages, capture, tmp_path):
     assert shell.path == "shell.json" and shell.sha256 == hash_file(run.shell)
     assert shell.numbers["walls"] == 1 and shell.numbers["floor_area"] == pytest.approx(16.0)
     keyframes = T.select_keyframes.fn(str(tmp_path), capture, KeyFrameConfig())
-    assert keyframes_of(keyframes) == [0, 2] and keyframes.numbers == {"count": 2}
+    assert keyframes_of(str(tmp_path), keyframes) == [0, 2] and keyframes.numbers == {"count": 2}
     assert json.loads(run.keyframes.read_text())["frames"] == [0, 2]
 
 
