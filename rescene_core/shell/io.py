@@ -25,7 +25,8 @@ def load_shell(path: str | Path) -> RoomShell:
 
 
 def plot_shell(path: str | Path, shell: RoomShell, capture: Capture | None = None) -> Path:
-    """Top-down PNG: points (grey structure, coloured objects), floor polygon, walls with inward normals."""
+    """Top-down PNG: points (grey structure, coloured objects), the floor's extent with its open sides, the
+    floor seen, walls with inward normals."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -52,7 +53,14 @@ def plot_shell(path: str | Path, shell: RoomShell, capture: Capture | None = Non
         cams = capture.world_from_cam[:, :3, 3]
         ax.plot(cams[:, 0], cams[:, 1], "k.", ms=3, label="cameras")
     poly = np.asarray(shell.floor_polygon + shell.floor_polygon[:1])
-    ax.plot(poly[:, 0], poly[:, 1], "-", color="tab:green", lw=2, label="floor polygon")
+    ax.plot(poly[:, 0], poly[:, 1], "-", color="tab:green", lw=2, label="floor extent")
+    for k in shell.open_edges():
+        ax.plot(poly[k : k + 2, 0], poly[k : k + 2, 1], ":", color="tab:orange", lw=3)
+    if shell.open_edges():
+        ax.plot([], [], ":", color="tab:orange", lw=3, label="open side (no wall seen)")
+    if shell.seen_floor_polygon is not None and shell.seen_floor_polygon != shell.floor_polygon:
+        seen = np.asarray(shell.seen_floor_polygon + shell.seen_floor_polygon[:1])
+        ax.plot(seen[:, 0], seen[:, 1], "--", color="tab:olive", lw=1, label="floor seen")
     for w in shell.walls:
         (x0, y0), (x1, y1) = w.segment
         ax.plot([x0, x1], [y0, y1], "-", color="tab:red", lw=3, alpha=0.7)

@@ -15,7 +15,7 @@ from rescene_core.capture import open_capture, write_capture
 from rescene_core.config import AttachmentConfig, ExportConfig
 from rescene_core.export.shell import shell_meshes
 from rescene_core.records import Edge, InstanceId, Relation, RoomShell, Root, SceneGraph
-from rescene_core.shell import estimate_shell, load_shell, save_shell
+from rescene_core.shell import estimate_shell, load_shell, plot_shell, save_shell
 from tests.fixtures import Box, box_capture_arrays, look_at, pinhole
 
 THIN = 0.002
@@ -118,3 +118,8 @@ def test_the_island_on_unseen_floor_is_not_moved(shell):
     for i, obj in objects.items():
         moved = layout.world_from_asset[i][:3, 3] - obj.world_from_asset[:3, 3]
         assert np.linalg.norm(moved[:2]) < 1e-6
+
+
+def test_plot_shows_the_open_sides(shell, tmp_path):
+    png = plot_shell(tmp_path / "shell.png", shell)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10000
