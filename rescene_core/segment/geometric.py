@@ -27,7 +27,7 @@ from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.labels import zero_shot_labels
 
 
-class GeometricConfig(BaseModel):
+class SegmentConfig(BaseModel):
     """Label-free segmentation. Lengths in metres, angles in degrees."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
@@ -111,7 +111,7 @@ class SegmentResult:
 
 
 def tsdf_mesh(
-    rgb: NDArray[np.uint8], depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, cfg: GeometricConfig
+    rgb: NDArray[np.uint8], depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, cfg: SegmentConfig
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """TSDF-fused surface: vertices [v, 3], faces [f, 3], vertex normals [v, 3] (world frame), vertex
     colours [v, 3] in [0, 1]."""
@@ -147,7 +147,7 @@ def tsdf_mesh(
 
 
 def _structure(
-    verts: NDArray, normals: NDArray, cams: NDArray, cfg: GeometricConfig
+    verts: NDArray, normals: NDArray, cams: NDArray, cfg: SegmentConfig
 ) -> tuple[NDArray[np.int64], list[dict[str, Any]]]:
     """Structure label per vertex (0 none, 1 floor, 2.. walls, then ceiling) and the planes found."""
     import open3d as o3d
@@ -217,7 +217,7 @@ def _dbscan(points: NDArray, eps: float, min_points: int) -> NDArray[np.int64]:
     return np.asarray(pcd.cluster_dbscan(eps, min_points, print_progress=False), np.int64)
 
 
-def _split_on_support(pts: NDArray, nrm: NDArray, cfg: GeometricConfig) -> list[NDArray[np.int64]]:
+def _split_on_support(pts: NDArray, nrm: NDArray, cfg: SegmentConfig) -> list[NDArray[np.int64]]:
     """Indices of the parts of one cluster: the support (a table and what is under its top) first, then
     each group of points standing on its top surface that is narrower than the top both ways (what spans
     the top is the piece's own back). A cluster with no large horizontal top is one part."""
@@ -251,7 +251,7 @@ def _split_on_support(pts: NDArray, nrm: NDArray, cfg: GeometricConfig) -> list[
 
 
 def _clusters(
-    verts: NDArray, normals: NDArray, free: NDArray[np.bool_], cfg: GeometricConfig
+    verts: NDArray, normals: NDArray, free: NDArray[np.bool_], cfg: SegmentConfig
 ) -> tuple[NDArray[np.int64], dict]:
     """Cluster label per vertex (0 = none, 1..k) of the free vertices, and counts for the report.
 
@@ -312,7 +312,7 @@ def _absorb_structure(
     struct: NDArray[np.int64],
     clusters: NDArray[np.int64],
     planes: list[dict[str, Any]],
-    cfg: GeometricConfig,
+    cfg: SegmentConfig,
 ) -> int:
     """Clusters that are slivers of a wall or the ceiling (most of their points within ``structure_band``
     of its plane) join it; returns how many did. Edits ``struct`` and ``clusters`` in place."""
@@ -341,7 +341,7 @@ def segment_geometric(
     depth: NDArray[np.float32],
     K: NDArray,
     world_from_cam: NDArray,
-    config: GeometricConfig | None = None,
+    config: SegmentConfig | None = None,
     clip_model: str | None = None,
     clip_model_name: str = "ViT-B-32",
     vocabulary: tuple[str, ...] = ("object",),
@@ -354,7 +354,7 @@ def segment_geometric(
     from rescene_core.render.raycast import RayCaster
     from rescene_core.segment.project import labelled_meshes, render_masks
 
-    cfg = config or GeometricConfig()
+    cfg = config or SegmentConfig()
     T, H, W = depth.shape
     verts, faces, normals, _ = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
     if len(faces) == 0:

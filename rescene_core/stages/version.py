@@ -12,9 +12,15 @@ from __future__ import annotations
 
 import ast
 import hashlib
+import threading
 from collections.abc import Iterable
 from functools import cache
 from pathlib import Path
+
+_WALK_LOCK = threading.Lock()
+"""One walk at a time: CPython 3.11's ``ast.parse`` is not safe in concurrent threads ("AST constructor
+recursion depth mismatch" when the flow's task threads ask for their code versions at once), and the walk
+is cached, so the second thread then finds it done."""
 
 PACKAGE = "rescene_core"
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
@@ -104,7 +110,9 @@ def import_closure(modules: Iterable[str], root: Path = PACKAGE_ROOT) -> tuple[s
 def source_hash(modules: Iterable[str], root: Path = PACKAGE_ROOT) -> str:
     """sha256 (16 hex digits) of the names and sources of the import closure of ``modules``."""
     h = hashlib.sha256()
-    for m in import_closure(modules, root):
+    with _WALK_LOCK:
+        closure = import_closure(modules, root)
+    for m in closure:
         path = module_file(m, root)
         assert path is not None  # the closure keeps only modules with a source file
         h.update(m.encode())

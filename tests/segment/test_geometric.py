@@ -14,7 +14,7 @@ from flows.cli import main
 from rescene_core.capture import open_capture
 from rescene_core.capture.importers.layouts import write_rgbd
 from rescene_core.capture.synth import make_scene
-from rescene_core.segment import GeometricConfig, SegmentError, segment_geometric
+from rescene_core.segment import SegmentConfig, SegmentError, segment_geometric
 from rescene_core.segment.evaluate import instance_scores, mask_iou_table, synth_object_sizes
 
 
@@ -52,7 +52,7 @@ def test_masks_agree_with_measured_depth(tiny, segmented):
 
 def test_empty_room_is_a_clear_error(tiny):
     a = tiny.arrays
-    cfg = GeometricConfig(min_segment_extent=50.0)  # nothing can be that big: no objects
+    cfg = SegmentConfig(min_segment_extent=50.0)  # nothing can be that big: no objects
     with pytest.raises(SegmentError, match="empty scene after segmentation"):
         segment_geometric(a.rgb, a.depth, a.K, a.world_from_cam, cfg)
 

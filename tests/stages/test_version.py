@@ -70,3 +70,15 @@ def test_every_stage_has_a_version():
     assert set(code_versions()) == {s.stage for s in DAG}
     assert len(set(code_versions().values())) == len(DAG)
     assert code_version(Stage.VIEW) == code_version("view")
+
+
+def test_versions_asked_for_from_many_threads_at_once(package_copy):
+    """The flow's task threads ask for their stage's version at the same time on a cold cache."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from rescene_core.stages import version
+
+    version._direct_imports.cache_clear()
+    with ThreadPoolExecutor(8) as pool:
+        hashes = list(pool.map(lambda s: source_hash(roots(s.stage), package_copy), list(DAG) * 4))
+    assert hashes == [source_hash(roots(s.stage), package_copy) for s in list(DAG) * 4]
