@@ -27,6 +27,26 @@ def _cmd_import(args: argparse.Namespace) -> int:
         "resolution": args.resolution,
         "overwrite": args.overwrite,
     }
+    if args.up is not None:
+        try:
+            up = tuple(float(v) for v in args.up.split(","))
+        except ValueError:
+            up = ()
+        if len(up) != 3:
+            print(
+                f"error: --up {args.up!r}: give the source's up as three numbers x,y,z (e.g. --up 0,1,0)",
+                file=sys.stderr,
+            )
+            return 2
+        fields["up"] = up
+    if args.max_tilt is not None:
+        if not 0.0 < args.max_tilt <= 180.0:
+            print(
+                f"error: --max-tilt {args.max_tilt:g}: give an angle in degrees, above 0 and at most 180",
+                file=sys.stderr,
+            )
+            return 2
+        fields["max_tilt"] = args.max_tilt
     if args.vocabulary:
         fields["vocabulary"] = tuple(v.strip() for v in args.vocabulary.split(",") if v.strip())
     extra = {}
@@ -55,19 +75,34 @@ def _cmd_import(args: argparse.Namespace) -> int:
         f"{inst['objects']} objects + {inst['structural']} structural instances by {report['segmenter']}, "
         f"depth coverage {report['depth'].get('coverage_mean', 0):.0%}"
     )
+    prior = (
+        f", {al['floor_to_prior_up_deg']:.2f} deg from the given up ({al['gravity_from']})"
+        if al["gravity_from"]
+        else ""
+    )
+    fallback = " (FALLBACK: no floor found; see the WARNING)" if al["method"] == "cameras" else ""
     print(
-        f"alignment: {al['method']}, floor normal {al['floor_to_camera_up_deg']:.2f} deg from the cameras' up, "
+        f"alignment: {al['method']}{fallback}, floor normal {al['floor_to_camera_up_deg']:.2f} deg from the cameras' up{prior}, "
         f"{report['throughput_fps']:.2f} frames/s"
     )
     for note in report["notes"]:
         print(f"note: {note}")
     print(f"report: {report_path(args.out)}")
+    for warning in report.get("warnings", []):
+        _shout(warning)
     if args.pictures:
         from rescene_core.capture.importers.pictures import write_pictures
 
         for what, path in write_pictures(args.out).items():
             print(f"picture ({what.replace('_', ' ')}): {path}")
     return 0
+
+
+def _shout(text: str) -> None:
+    """A warning the user must not miss, framed, on stderr."""
+    bar = "!" * 100
+    sys.stdout.flush()
+    print(f"{bar}\nWARNING: {text}\n{bar}", file=sys.stderr, flush=True)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -86,6 +121,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pose-convention", choices=["cam_to_world", "world_to_cam"])
     p.add_argument("--camera-axes", choices=["opencv", "opengl"])
     p.add_argument("--align", choices=["floor", "none"], help="floor (default): z up, floor at z = 0")
+    p.add_argument(
+        "--up",
+        metavar="X,Y,Z",
+        help="the recorder's up (minus its gravity) in the source's world frame, e.g. 0,1,0 for a y-up headset; "
+        "refined by the floor plane near it (default: SRC/gravity.txt when there, else a floor search)",
+    )
+    p.add_argument(
+        "--max-tilt",
+        type=float,
+        metavar="DEG",
+        help="largest angle between the floor normal and the prior up (default 10 with --up, 80 from the cameras)",
+    )
     p.add_argument("--resolution", choices=["depth", "color"], help="scannet: the image size kept")
     p.add_argument("--masks", type=Path, help="panoptic: folder of per-frame instance-id PNGs (default SRC/instances)")
     p.add_argument(

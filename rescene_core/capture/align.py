@@ -407,10 +407,11 @@ def _no_floor_warning(
     lines = [head + ".", tried]
     if never:
         lines.append("The cameras never see a floor: no large plane lies under them with nothing below it.")
+    y_up = "" if axis == "0,1,0" else "; y-up recorders such as HoloLens and ARKit: --up 0,1,0"
     lines.append(
         f"Fix: give the recorder's up in the source's world frame, e.g. --up {axis} (the source axis nearest "
-        f"the cameras' mean up, {off:.0f} deg from it; y-up recorders such as HoloLens and ARKit: --up 0,1,0), "
-        "or an IMU gravity vector negated (Aria MPS gravity_world), or SRC/gravity.txt."
+        f"the cameras' mean up, {off:.0f} deg from it{y_up}), or its IMU gravity vector negated (Aria MPS "
+        "gravity_world), or write the gravity vector to SRC/gravity.txt."
     )
     if floorish:
         best = min(floorish, key=lambda c: c.tilt_deg)

@@ -46,6 +46,13 @@ class ImportOptions(BaseModel):
     align: Literal["floor", "none"] = "floor"
     """'floor': rotate the world to z up with the floor at z = 0; 'none': keep the source frame (it must
     already be z up)."""
+    up: tuple[float, float, float] | None = None
+    """The recorder's up direction (minus its gravity) in the source's world frame, e.g. (0, 1, 0) for a
+    y-up headset; None: SRC/gravity.txt or an Aria MPS closed_loop_trajectory.csv when the source has one,
+    else the floor search from the cameras alone."""
+    max_tilt: float | None = None
+    """Largest angle between the floor normal and the prior up (deg): the given gravity's (default 10) or
+    the cameras' mean up (default 80); None: the alignment's defaults."""
     segment: Literal["none", "geometric"] = "none"
     """Instance masks: 'none' takes them from the source; 'geometric' makes them without labels (TSDF,
     planes removed, clusters, rendered back into every frame)."""
@@ -303,8 +310,53 @@ def select_frames(n: int, opts: ImportOptions) -> list[int]:
         raise ImportInputError(f"--stride is {opts.stride}; use a positive integer")
     keep = list(range(0, n, opts.stride))
     if opts.max_frames is not None:
-        keep = keep[: max(0, opts.max_frames)]
+        if opts.max_frames < 1:
+            raise ImportInputError(f"--max-frames is {opts.max_frames}; keep at least one frame")
+        keep = keep[: opts.max_frames]
     return keep
+
+
+GRAVITY_FILE = "gravity.txt"
+"""A source's own gravity: three numbers, the gravity vector (pointing down, any length) in its world frame."""
+ARIA_TRAJECTORY = "closed_loop_trajectory.csv"
+"""Aria MPS trajectory; its gravity_x_world, gravity_y_world, gravity_z_world columns are the gravity."""
+
+
+def read_source_gravity(src: Path) -> tuple[NDArray[np.float64], str] | None:
+    """The recorder's up (unit [3], minus its gravity) from the source folder, and the file it came from:
+    ``SRC/gravity.txt`` or the median gravity of an Aria MPS ``SRC/closed_loop_trajectory.csv``; None when
+    the source has neither. A file that is there but unreadable stops the import with its name."""
+    path = src / GRAVITY_FILE
+    if path.is_file():
+        try:
+            g = np.loadtxt(path, dtype=np.float64, ndmin=1).ravel()
+        except Exception as err:
+            raise ImportInputError(
+                f"{path}: not three numbers ({err}); write the gravity vector, e.g. 0 -9.81 0"
+            ) from err
+        return _up_from_gravity(g, path), str(path)
+    path = src / ARIA_TRAJECTORY
+    if path.is_file():
+        import csv
+
+        cols = ("gravity_x_world", "gravity_y_world", "gravity_z_world")
+        try:
+            with path.open(newline="") as f:
+                rows = [[float(r[c]) for c in cols] for r in csv.DictReader(f) if all(r.get(c) for c in cols)]
+        except (ValueError, KeyError, csv.Error) as err:
+            raise ImportInputError(f"{path}: unreadable gravity columns {', '.join(cols)} ({err})") from err
+        if not rows:
+            return None  # a trajectory without gravity columns: the floor search decides
+        return _up_from_gravity(np.median(np.asarray(rows), axis=0), path), str(path)
+    return None
+
+
+def _up_from_gravity(g: NDArray[np.float64], where: Path) -> NDArray[np.float64]:
+    if g.shape != (3,) or not np.isfinite(g).all() or np.linalg.norm(g) < 1e-9:
+        raise ImportInputError(
+            f"{where}: gravity must be three finite numbers, not all zero (got {g.tolist()}); e.g. 0 -9.81 0"
+        )
+    return -g / np.linalg.norm(g)
 
 
 def load_frames(
@@ -338,6 +390,8 @@ def load_frames(
         else:
             ok.append(k)
             good_poses.append(fixed)
+    if not poses:
+        raise ImportInputError(f"{src}: no frames to import (an empty source); check the image and pose files")
     if not ok:
         reasons = sorted({d.reason for d in dropped})
         raise ImportInputError(f"{src}: every frame's pose is unusable ({'; '.join(reasons)}); check the pose files")

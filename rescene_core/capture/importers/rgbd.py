@@ -48,6 +48,8 @@ def read_rgbd(src: str | Path, opts: ImportOptions, mask_dir: Path | None = None
     match_stems(rgb_files, depth_files, images, depth_dir)
     by_stem = {p.stem: p for p in depth_files}
     depth_files = [by_stem[p.stem] for p in rgb_files]
+    if not poses_file.read_text().strip():
+        raise ImportInputError(f"{poses_file}: no poses (the file is empty); write one 4x4 camera pose a line")
     try:
         raw = np.loadtxt(poses_file, dtype=np.float64, ndmin=2)
     except Exception as err:

@@ -23,7 +23,13 @@ from rescene_core.capture.align import (
 )
 from rescene_core.capture.depth_points import DepthPointsConfig, instance_points, scene_points
 from rescene_core.capture.format import CaptureArrays, points_to_csr, write_capture
-from rescene_core.capture.importers.common import ImportInputError, ImportOptions, SourceFrames, is_structural
+from rescene_core.capture.importers.common import (
+    ImportInputError,
+    ImportOptions,
+    SourceFrames,
+    is_structural,
+    read_source_gravity,
+)
 from rescene_core.capture.validate import check_capture
 from rescene_core.io import atomic_directory, write_json_atomic
 from rescene_core.records import Instance, InstanceId
@@ -70,15 +76,33 @@ def finish_import(
             "(fix: add depth maps, e.g. depth_file_path in transforms.json)"
         )
     T = len(frames.names)
+    if T == 1 and opts.segment == "geometric":
+        raise ImportInputError(
+            f"{frames.src}: a single frame ({frames.names[0]}) to import; --segment geometric keeps only the surface "
+            "seen from two frames or more, so one frame gives none (fix: import more frames, check --stride and "
+            "--max-frames, or give per-frame instance masks with the panoptic format)"
+        )
+    if T == 1:
+        frames.notes.append(f"a single frame ({frames.names[0]}): the floor and the instance clouds come from one view")
 
     t = time.perf_counter()
     if opts.align == "floor":
+        up, gravity_from = _source_up(frames, opts)
+        cfg = align_config or AlignConfig()
+        if opts.max_tilt is not None:
+            cfg = cfg.model_copy(update={"gravity_max_tilt_deg" if up is not None else "max_tilt_deg": opts.max_tilt})
         fused = scene_points(frames.depth, frames.K, frames.world_from_cam)
         try:
-            alignment = estimate_alignment(fused, frames.world_from_cam, align_config)
+            alignment = estimate_alignment(fused, frames.world_from_cam, cfg, up=up, gravity_from=gravity_from)
         except ValueError as err:
-            raise ImportInputError(f"{frames.src}: cannot find gravity ({err}); pass --align none") from err
+            raise ImportInputError(
+                f"{frames.src}: cannot find gravity ({err}); pass --up X,Y,Z (the source's up) or --align none"
+            ) from err
     else:
+        if opts.up is not None or opts.max_tilt is not None:
+            raise ImportInputError(
+                f"{frames.src}: --up and --max-tilt need --align floor (--align none keeps the frame)"
+            )
         alignment = identity_alignment(frames.world_from_cam)
     world_from_cam = apply_alignment(alignment, frames.world_from_cam)
     timings["align"] = time.perf_counter() - t
@@ -177,6 +201,7 @@ def finish_import(
         },
         "points": {"total": int(len(points)), **point_stats},
         "alignment": alignment.to_json(),
+        "warnings": [alignment.warning] if alignment.warning else [],
         "segmentation": segment_report,
         "notes": list(frames.notes),
     }
@@ -207,6 +232,20 @@ def finish_import(
     report["throughput_fps"] = round(T / max(elapsed, 1e-9), 3)
     write_json_atomic(report_path(out), report)
     return report
+
+
+def _source_up(frames: SourceFrames, opts: ImportOptions) -> tuple[np.ndarray | None, str]:
+    """The recorder's up in the source frame and where it came from: ``--up``, else the source's own gravity
+    file, else (None, '') and the floor search works from the cameras alone."""
+    found = read_source_gravity(frames.src)
+    if opts.up is not None:
+        if found is not None:
+            frames.notes.append(f"--up {list(opts.up)} is used; the source's own gravity in {found[1]} is not")
+        return np.asarray(opts.up, np.float64), "--up"
+    if found is not None:
+        frames.notes.append(f"gravity read from {found[1]}: up {np.round(found[0], 4).tolist()} in the source frame")
+        return found
+    return None, ""
 
 
 def _drop_objects_without_points(
