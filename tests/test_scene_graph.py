@@ -1,4 +1,4 @@
-"""Traversal of a scene graph (rescene_core/records.py SceneGraph): children, descendants, object parents."""
+"""Traversal of a scene graph (rescene_core/records/graph.py SceneGraph): children, descendants, object parents."""
 
 from __future__ import annotations
 
