@@ -87,8 +87,10 @@ def holds_from_below(
     child_xy: [m, 2] the child's points' horizontal positions; child_bottom: the child's lower contact
     surface (m); tol: ``support_tol``. True when the instance reaches further down than the child's bottom
     (furniture seen down to its base, or a shelf unit: the child may stand on any shelf of it), or when its
-    points around the child rise no higher than the child's bottom there and the child's centre (median
-    position) is over it (inside the convex hull of its points): its top is where the child stands, a
+    points around the child rise no higher than the child's bottom there, in bulk (the 1 - SPAN_QUANTILE
+    quantile: the child's own outline bleeds into the parent's mask, on the synthetic egocentric scenes 1%
+    of a tray's points around a jar on it reach the jar's top) and the child's centre (median position) is
+    over it (inside the convex hull of its points): its top is where the child stands, a tray, or a
     counter or an island seen only from above, whose lowest visible point is its top. A neighbour standing
     on the same surface starts at the child's bottom and either rises above it or lies beside the child's
     centre, not under it (a tray beside a cup; the island does not rest on the tray on it). Whether it has an
@@ -98,7 +100,9 @@ def holds_from_below(
 
     if parent_bottom < child_bottom - tol:
         return True
-    if not around.any() or upper_surface(np.asarray(parent_height)[around]) > child_bottom + tol or not len(child_xy):
+    if not around.any() or not len(child_xy):
+        return False
+    if np.quantile(np.asarray(parent_height)[around], 1.0 - SPAN_QUANTILE) > child_bottom + tol:
         return False
     hull = MultiPoint(np.asarray(parent_points, dtype=np.float64)[:, :2]).convex_hull
     centre = np.median(np.asarray(child_xy, dtype=np.float64), axis=0)

@@ -180,3 +180,24 @@ def test_a_neighbour_on_the_same_surface_is_no_support():
         around = near_footprint(other, lamp[:, :2], CFG.geometric.support_radius)
         assert around.any()
         assert holds_from_below(other, other[:, 2], lower_surface(other[:, 2]), around, lamp[:, :2], b, tol) is holds
+
+
+def test_a_tray_holds_the_cup_on_it_despite_the_cup_outline_bled_into_its_mask():
+    """A 2 cm tray seen from above starts 2 cm below the cup on it; 2% of its points are the cup's outline
+    (mask bleed at their shared border), up to the cup's top."""
+    rng = np.random.default_rng(5)
+    cup = rng.uniform((1.16, 1.16, 0.77), (1.24, 1.24, 0.87), size=(400, 3))
+    tray_top = np.c_[rng.uniform(1.0, 1.4, 1500), rng.uniform(1.0, 1.3, 1500), np.full(1500, 0.77)]
+    bleed = rng.uniform((1.15, 1.15, 0.77), (1.25, 1.25, 0.87), size=(30, 3))
+    tray = np.vstack([tray_top, rng.uniform((1.0, 1.0, 0.75), (1.4, 1.3, 0.77), size=(100, 3)), bleed])
+    around = near_footprint(tray, cup[:, :2], CFG.geometric.support_radius)
+    assert tray[around, 2].max() > lower_surface(cup[:, 2]) + CFG.geometric.support_tol  # the bleed rises above
+    assert holds_from_below(
+        tray,
+        tray[:, 2],
+        lower_surface(tray[:, 2]),
+        around,
+        cup[:, :2],
+        lower_surface(cup[:, 2]),
+        CFG.geometric.support_tol,
+    )
