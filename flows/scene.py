@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from uuid import UUID
@@ -22,14 +23,14 @@ from uuid import UUID
 from prefect import flow, get_run_logger, unmapped
 from prefect.artifacts import create_progress_artifact, update_progress_artifact
 from prefect.context import FlowRunContext
-from prefect.futures import as_completed, wait
+from prefect.futures import PrefectFuture, as_completed, wait
 from prefect.states import Completed, Failed, State
 
 from rescene_core.capture import open_capture
 from rescene_core.config import RunConfig
-from rescene_core.manifest import asset_cell, final_message, instance_row, now_iso
+from rescene_core.manifest import InstanceRow, StageRow, final_message, instance_row, now_iso
 from rescene_core.paths import RunPaths
-from rescene_core.records import InstanceId, Missing, Stage
+from rescene_core.records import InstanceId, Missing, Ref, Stage
 from rescene_core.runlog import Segment
 from rescene_core.stages.execution import capture_ref
 from rescene_core.stages.keyframes import keyframes_of
@@ -37,7 +38,7 @@ from tasks import dag as T
 from tasks.common import retry_delays, vlm_slot
 from tasks.run import failure_reason, finish_run, instance_outcome, state_row, write_run_config
 
-ProgressListener = Callable[[int, int, dict[str, Any]], None]
+ProgressListener = Callable[[int, int, InstanceRow], None]
 PROGRESS_LISTENERS: list[ProgressListener] = []
 """Called in the flow's process as each instance finishes: (done, total, instance row). The demo's
 progress bar registers here."""
@@ -45,6 +46,16 @@ progress bar registers here."""
 PROGRESS_INTERVAL_S = 1.0
 """The progress artifact is updated as instances finish, at most once per this many seconds (and at
 the end), so a burst of cached instances costs one API call, not one per instance."""
+
+
+@dataclass(frozen=True)
+class InstanceOutcome:
+    """One instance after the fan-in: its table row, its final pose reference (None when it failed) and
+    its asset task (None when the instance failed)."""
+
+    row: InstanceRow
+    pose: Ref | None = None
+    asset: PrefectFuture[Ref] | None = None
 
 
 def _bind(task_, run: RunPaths):
@@ -105,8 +116,8 @@ def rescene(
         T.predict_relations, T.fuse_graph, T.snapshot_registration, T.attach_layout, T.export, T.evaluate))  # fmt: skip
     simcheck_t = _bind(T.simcheck, run)
     rd, cr = unmapped(str(run.root)), unmapped(capture_in)
-    rows: list[dict[str, Any]] = []
-    stage_rows: list[dict[str, Any]] = []
+    rows: list[InstanceRow] = []
+    stage_rows: list[StageRow] = []
     failures: list[Missing] = []
     missing: list[Missing] = []
     frame_failures: list[str] = []
@@ -135,9 +146,8 @@ def rescene(
 
         # fan-in of the instances, reporting progress as each one finishes
         index = {fut: k for k, fut in enumerate(poses)}
-        by_instance: dict[int, dict[str, Any]] = {
-            m.instance: {"ref": None, "asset": None, "row": instance_row(m.instance, labels[m.instance], None, m)}
-            for m in failures
+        by_instance: dict[int, InstanceOutcome] = {
+            m.instance: InstanceOutcome(instance_row(m.instance, labels[m.instance], None, m)) for m in failures
         }
         last_update = time.monotonic()
         for done, fut in enumerate(as_completed(list(poses)), start=1):
@@ -148,10 +158,10 @@ def rescene(
             ref, miss, failed = instance_outcome(i, per_stage)
             row = instance_row(i, labels[i], view_refs[k], miss)
             if assets[k].state.is_completed():
-                row["asset"] = asset_cell(assets[k].result())
+                row = row.with_asset(assets[k].result())
             if miss is not None:
                 (failures if failed else missing).append(miss)
-            by_instance[i] = {"ref": ref, "asset": assets[k] if not failed else None, "row": row}
+            by_instance[i] = InstanceOutcome(row, ref, None if failed else assets[k])
             for stage, f in per_stage:
                 stage_rows.append(state_row(stage, i, f))
             now = time.monotonic()
@@ -162,9 +172,9 @@ def rescene(
                 listener(done, len(ids), row)
         if not view_refs:
             update_progress_artifact(progress_id, 100.0)
-        rows = [by_instance[i]["row"] for i in ids]
-        ok_poses = [by_instance[i]["ref"] for i in ids if by_instance[i]["ref"] is not None]
-        ok_assets = [by_instance[i]["asset"].result() for i in ids if by_instance[i]["asset"] is not None]
+        rows = [by_instance[i].row for i in ids]
+        ok_poses = [o.pose for o in (by_instance[i] for i in ids) if o.pose is not None]
+        ok_assets = [o.asset.result() for o in (by_instance[i] for i in ids) if o.asset is not None]
         all_missing = sorted(failures + missing, key=lambda m: m.instance)
 
         snapshot_f = snapshot_t.submit(str(run.root), capture_in, shell_f, ok_assets, ok_poses, *walls)
@@ -204,8 +214,8 @@ def rescene(
         instance_failures = sorted(int(m.instance) for m in failures)
         message = final_message(failures, frame_failures, scene_error)
         state_name = "Failed" if message else "Completed"
-        for row in stage_rows:
-            flow_log.log("/flow/tasks", row)
+        for stage_row in stage_rows:
+            flow_log.log("/flow/tasks", stage_row.to_json())
         missing_all = sorted(failures + missing, key=lambda m: (int(m.instance), m.stage))
         flow_log.log(
             "/flow/events",

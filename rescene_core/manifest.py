@@ -2,9 +2,8 @@
 report, built from what a pipeline run recorded. Plain values in, plain values out: the orchestration
 layer gathers the task states, this module decides what the manifest says.
 
-A *stage row* is one task run as the orchestrator saw it: ``{"stage", "item", "state", "cached",
-"seconds", "message"}``. An *instance row* is one line of the instance table: ``{"instance", "label",
-"view", "asset", "registration", "missing_stage", "missing_reason"}``.
+A ``StageRow`` is one task run as the orchestrator saw it; an ``InstanceRow`` is one line of the instance
+table. Both are frozen records; ``to_json`` gives the manifest's and the run log's form.
 """
 
 from __future__ import annotations
@@ -13,6 +12,7 @@ import datetime as dt
 import io
 import subprocess
 from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -45,27 +45,58 @@ def git_describe(root: str | Path = REPO_ROOT) -> str | None:
     return out.stdout.strip() or None
 
 
-def instance_row(instance: int, label: str, view: Ref | None, missing: Missing | None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class StageRow:
+    """One task run as the orchestrator saw it. item: the instance or key frame (None for a scene-level
+    stage); state: Prefect's state name; cached: served from the cache; message: why it did not complete."""
+
+    stage: Stage
+    item: int | None
+    state: str
+    cached: bool
+    seconds: float | None = None
+    message: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class InstanceRow:
+    """One line of the instance table: the chosen view's frame (or "missing" / "-"), the asset's face count
+    (or "missing" / "-"), registration "ok" / "missing", and the stage and reason of a Missing instance."""
+
+    instance: int
+    label: str
+    view: int | str = "-"
+    asset: str = "-"
+    registration: str = "ok"
+    missing_stage: str = ""
+    missing_reason: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def with_asset(self, asset: Ref) -> InstanceRow:
+        """The row with its asset cell filled in: the face count, or "missing"."""
+        return replace(self, asset=f"{asset.numbers.get('faces', 0)} faces" if asset.ok else "missing")
+
+
+def instance_row(instance: int, label: str, view: Ref | None, missing: Missing | None) -> InstanceRow:
     """The instance's row: chosen view frame (or "missing"), registration ok/missing, missing stage and reason.
 
-    ``asset`` starts as "-"; the orchestrator fills it in once the asset task has finished."""
-    shown: Any = "-"
+    ``asset`` starts as "-"; the orchestrator fills it in (``with_asset``) once the asset task has finished."""
+    shown: int | str = "-"
     if view is not None:
         shown = view.numbers.get("frame", "-") if view.ok else "missing"
-    return {
-        "instance": instance,
-        "label": label,
-        "view": shown,
-        "asset": "-",
-        "registration": "missing" if missing else "ok",
-        "missing_stage": missing.stage.value if missing else "",
-        "missing_reason": missing.reason if missing else "",
-    }
-
-
-def asset_cell(asset: Ref) -> str:
-    """The instance table's asset cell: the face count, or "missing"."""
-    return f"{asset.numbers.get('faces', 0)} faces" if asset.ok else "missing"
+    return InstanceRow(
+        instance=instance,
+        label=label,
+        view=shown,
+        registration="missing" if missing else "ok",
+        missing_stage=missing.stage.value if missing else "",
+        missing_reason=missing.reason if missing else "",
+    )
 
 
 def final_message(failures: Iterable[Missing], frame_failures: list[str], scene_error: str | None) -> str | None:
@@ -87,13 +118,13 @@ def final_message(failures: Iterable[Missing], frame_failures: list[str], scene_
     return " | ".join(parts) or None
 
 
-def stage_counts(stage_rows: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, int]]:
+def stage_counts(stage_rows: Iterable[StageRow]) -> dict[str, dict[str, int]]:
     """Per stage, task runs by final state: ``cached`` for cache hits, else the state name in lower case."""
     stages: dict[str, dict[str, int]] = {}
     for r in stage_rows:
-        key = "cached" if r["cached"] else str(r["state"]).lower()
-        stages.setdefault(str(r["stage"]), {}).setdefault(key, 0)
-        stages[str(r["stage"])][key] += 1
+        key = "cached" if r.cached else r.state.lower()
+        stages.setdefault(str(r.stage), {}).setdefault(key, 0)
+        stages[str(r.stage)][key] += 1
     return stages
 
 
@@ -104,8 +135,8 @@ def build_manifest(
     config: RunConfig,
     flow_run_id: str,
     started: str,
-    stage_rows: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
+    stage_rows: list[StageRow],
+    rows: list[InstanceRow],
     missing: list[Missing],
     failed: list[int],
     state: str,
@@ -133,13 +164,13 @@ def build_manifest(
         "config_hashes": {s: config.section_hash(s) for s in RunConfig.model_fields},
         "code_version": {"git": git_describe(), "stages": {str(k): v for k, v in stage_versions.items()}},
         "stages": stage_counts(stage_rows),
-        "instances": rows,
+        "instances": [r.to_json() for r in rows],
         "missing": [m.to_json() for m in missing],
         "failed_instances": failed,
     }
 
 
-def write_instance_table(path: str | Path, rows: list[dict[str, Any]]) -> Path:
+def write_instance_table(path: str | Path, rows: list[InstanceRow]) -> Path:
     """The instance table as Parquet (every column a string but the instance id), written atomically."""
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -147,7 +178,8 @@ def write_instance_table(path: str | Path, rows: list[dict[str, Any]]) -> Path:
     table = pa.table(
         {
             c: pa.array(
-                [r[c] if c == "instance" else str(r[c]) for r in rows], pa.int64() if c == "instance" else pa.string()
+                [getattr(r, c) if c == "instance" else str(getattr(r, c)) for r in rows],
+                pa.int64() if c == "instance" else pa.string(),
             )
             for c in INSTANCE_COLUMNS
         }

@@ -15,7 +15,7 @@ from prefect.futures import PrefectFuture
 
 from rescene_core.config import RunConfig
 from rescene_core.io import write_bytes_atomic, write_json_atomic
-from rescene_core.manifest import build_manifest, render_report, write_instance_table
+from rescene_core.manifest import InstanceRow, StageRow, build_manifest, render_report, write_instance_table
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Ref, Stage
 from rescene_core.runlog import merge_segments
@@ -34,17 +34,16 @@ def write_run_config(run: RunPaths, config: RunConfig) -> None:
     write_bytes_atomic(run.config, yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False).encode())
 
 
-def state_row(stage: Stage, item: int | None, future: PrefectFuture) -> dict[str, Any]:
+def state_row(stage: Stage, item: int | None, future: PrefectFuture[Any]) -> StageRow:
     """One task run as the flow saw it (a stage row of the manifest and of /flow/tasks)."""
     st = future.state
-    return {
-        "stage": stage,
-        "item": item,
-        "state": st.name or st.type.value,
-        "cached": st.name == "Cached",
-        "seconds": None,
-        "message": None if st.is_completed() else st.message,
-    }
+    return StageRow(
+        stage=stage,
+        item=item,
+        state=st.name or st.type.value,
+        cached=st.name == "Cached",
+        message=None if st.is_completed() else st.message,
+    )
 
 
 def instance_outcome(
@@ -73,8 +72,8 @@ def finish_run(
     config: RunConfig,
     flow_run_id: str,
     started: str,
-    stage_rows: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
+    stage_rows: list[StageRow],
+    rows: list[InstanceRow],
     missing: list[Missing],
     failed: list[int],
     state: str,
@@ -101,5 +100,7 @@ def finish_run(
     write_instance_table(run.instance_table, rows)
     create_markdown_artifact(render_report(manifest), key="rescene-report", description="ReScene run report")
     if rows:
-        create_table_artifact(rows, key="rescene-instances", description="instances: view, asset, registration")
+        create_table_artifact(
+            [r.to_json() for r in rows], key="rescene-instances", description="instances: view, asset, registration"
+        )
     return manifest

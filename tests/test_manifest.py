@@ -6,7 +6,7 @@ import pyarrow.parquet as pq
 
 from rescene_core.config import RunConfig
 from rescene_core.manifest import (
-    asset_cell,
+    StageRow,
     build_manifest,
     final_message,
     instance_row,
@@ -21,17 +21,17 @@ def _rows():
     view = Ref("view", "instances/2/view.json", "a" * 64, 2, numbers={"frame": 4})
     gone = Missing(InstanceId(3), Stage.REGISTRATION, "gates rejected")
     rows = [instance_row(2, "chair", view, None), instance_row(3, "desk", None, gone)]
-    rows[0]["asset"] = asset_cell(Ref("asset", "instances/2/asset.json", "b" * 64, 2, numbers={"faces": 120}))
+    rows[0] = rows[0].with_asset(Ref("asset", "instances/2/asset.json", "b" * 64, 2, numbers={"faces": 120}))
     return rows, gone
 
 
 def test_instance_rows_and_table(tmp_path):
     rows, _ = _rows()
-    assert rows[0] == {"instance": 2, "label": "chair", "view": 4, "asset": "120 faces", "registration": "ok",
-                       "missing_stage": "", "missing_reason": ""}  # fmt: skip
-    assert rows[1]["registration"] == "missing" and rows[1]["missing_stage"] == "registration"
+    assert rows[0].to_json() == {"instance": 2, "label": "chair", "view": 4, "asset": "120 faces",
+                                 "registration": "ok", "missing_stage": "", "missing_reason": ""}  # fmt: skip
+    assert rows[1].registration == "missing" and rows[1].missing_stage == "registration"
     missing_view = Ref("view", "v", "c" * 64, 5, RefStatus.MISSING, missing=Missing(InstanceId(5), "view", "x"))
-    assert instance_row(5, "lamp", missing_view, missing_view.missing)["view"] == "missing"
+    assert instance_row(5, "lamp", missing_view, missing_view.missing).view == "missing"
     path = write_instance_table(tmp_path / "instances.parquet", rows)
     table = pq.read_table(path)
     assert table.column_names[0] == "instance" and str(table.schema.field("instance").type) == "int64"
@@ -52,9 +52,9 @@ def test_final_message_groups_failures_by_stage_and_reason():
 def test_manifest_and_report():
     rows, gone = _rows()
     stage_rows = [
-        {"stage": Stage.REGISTRATION, "item": 2, "state": "Completed", "cached": False},
-        {"stage": Stage.REGISTRATION, "item": 3, "state": "Cached", "cached": True},
-        {"stage": Stage.EXPORT, "item": None, "state": "Failed", "cached": False},
+        StageRow(Stage.REGISTRATION, 2, "Completed", False),
+        StageRow(Stage.REGISTRATION, 3, "Cached", True),
+        StageRow(Stage.EXPORT, None, "Failed", False, message="disk full"),
     ]
     assert stage_counts(stage_rows) == {"registration": {"completed": 1, "cached": 1}, "export": {"failed": 1}}
     capture = Ref("capture", "/data/room.zarr", "d" * 64)
@@ -67,5 +67,6 @@ def test_manifest_and_report():
     assert manifest["code_version"]["stages"] == {"registration": "abc"}
     assert set(manifest["config_hashes"]) == set(RunConfig.model_fields)
     assert manifest["missing"] == [{"instance": 3, "stage": "registration", "reason": "gates rejected"}]
+    assert manifest["instances"][1]["missing_reason"] == "gates rejected"
     report = render_report(manifest)
     assert "| registration | 1 | 1 | 0 | 0 |" in report and "- 3 (registration): gates rejected" in report

@@ -14,6 +14,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from rescene_core.manifest import InstanceRow
 from rescene_core.paths import RunPaths
 
 
@@ -61,9 +62,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     )  # fmt: skip
     bar = progress.add_task("", total=summary["objects"])
 
-    def on_instance(done: int, total: int, row: dict) -> None:
-        status = row["registration"] if not row["missing_stage"] else f"missing at {row['missing_stage']}"
-        progress.update(bar, completed=done, total=total, description=f"{row['instance']} {row['label']}: {status}")
+    def on_instance(done: int, total: int, row: InstanceRow) -> None:
+        status = row.registration if not row.missing_stage else f"missing at {row.missing_stage}"
+        progress.update(bar, completed=done, total=total, description=f"{row.instance} {row.label}: {status}")
 
     scene_flow.PROGRESS_LISTENERS.append(on_instance)
     start = time.perf_counter()
