@@ -130,7 +130,7 @@ def _client(config: JudgeConfig):
     from rescene_core.scenegraph.openai_backend import OpenAIPredictor
 
     class JudgeClient(OpenAIPredictor):
-        def request_body(self, query: JudgeRequest) -> dict[str, Any]:  # type: ignore[override]
+        def request_body(self, query: JudgeRequest) -> dict[str, Any]:  # type: ignore[override]  # only given JudgeRequests
             import base64
 
             parts: list[dict[str, Any]] = [{"type": "text", "text": query.prompt}]
