@@ -118,6 +118,19 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             keep_registered(state, child)
             state.skip(child, stage, refused)
             continue
+        over = state.over_bound(child, parent_delta @ update) if "wall_id" in info else None
+        if over is not None:
+            # cut short, a wall contact is no contact: the object stays where it was seen
+            keep_registered(state, child)
+            state.log(
+                child,
+                stage,
+                "skip",
+                reason=f"the wall is {over['wanted_m']:.3f} m away, more than max_correction_m = "
+                f"{over['max_correction_m']} m: the object keeps its registered pose",
+                bound_clipped={**over, "taken_m": 0.0},
+            )
+            continue
         state.set_delta(
             child,
             parent_delta @ update,

@@ -203,18 +203,31 @@ class LayoutState:
                 self.delta[j] = saved[j]
                 self._version[j] += 1
 
+    def over_bound(self, i: InstanceId, delta: NDArray) -> dict[str, float] | None:
+        """What the correction bound would cut from Delta T_i = ``delta`` [4, 4] (a propagated correction):
+        {wanted_m, taken_m, max_correction_m}, or None when the object's own horizontal move is within the
+        bound, the bound is off, or the object, where its parent carries it, reaches behind a wall."""
+        limit = self.config.max_correction_m
+        if limit is None:
+            return None
+        length = float(np.linalg.norm(self.own_move(i, delta)))
+        if length <= limit + 1e-9:
+            return None
+        carried = self.objects[i].world_vertices(self.carried(i) @ self.objects[i].world_from_asset)
+        if self.through_wall(i, carried):
+            return None
+        return {"wanted_m": length, "taken_m": float(limit), "max_correction_m": float(limit)}
+
     def set_delta(self, i: InstanceId, delta: NDArray, stage: str, rule: str, **info: Any) -> None:
         """Set Delta T_i directly (propagation), logging the change; the object's own horizontal move is cut
         to the correction bound (module docstring)."""
         delta = np.asarray(delta, dtype=np.float64)
-        limit = self.config.max_correction_m
-        carried = self.objects[i].world_vertices(self.carried(i) @ self.objects[i].world_from_asset)
-        if limit is not None and not self.through_wall(i, carried):
+        over = self.over_bound(i, delta)
+        if over is not None:
+            limit = float(over["max_correction_m"])
             own = self.own_move(i, delta)
-            length = float(np.linalg.norm(own))
-            if length > limit + 1e-9:
-                delta = translation(-(1.0 - limit / length) * own) @ delta
-                info["bound_clipped"] = {"wanted_m": length, "taken_m": float(limit), "max_correction_m": float(limit)}
+            delta = translation(-(1.0 - limit / float(np.linalg.norm(own))) * own) @ delta
+            info["bound_clipped"] = over
         self.delta[i] = delta
         self._version[i] += 1
         self.log(i, stage, rule, **info)
