@@ -21,9 +21,11 @@ WALL_LATERAL_MARGIN = 0.10
 COUNTER_HEIGHTS = (0.6, 1.2)
 """A large horizontal top between these heights (m) with nothing seen below it is a counter, an island or a
 table (``seen_only_from_above``): a head-mounted camera looking down at it never sees its base."""
-COUNTER_MIN_SIDE = 0.40
-"""... large: both sides of its footprint's minimum-area rectangle at least this long (m); a wall shelf
-(about 0.3 m deep), a tray or a cutting board is smaller."""
+COUNTER_MIN_SPAN = 0.30
+"""... large: the bulk of its points (the SPAN_QUANTILE to 1 - SPAN_QUANTILE range) spans at least this
+along both horizontal principal axes (m), so a top about 0.4 m or more on each side; a wall shelf (about
+0.3 m deep), a tray, a cutting board or a stack of books is smaller. The bulk, not the extremes: a cloud's
+stray points stretch a book stack's minimum-area rectangle to 0.5 m."""
 COUNTER_DEPTH = 0.10
 """... nothing seen below: at least COUNTER_TOP_SHARE of its points lie within this of its top (m)."""
 COUNTER_TOP_SHARE = 0.90
@@ -112,26 +114,23 @@ def holds_from_below(
 def seen_only_from_above(height: NDArray, xy: NDArray) -> bool:
     """Whether an instance is a large horizontal top at counter height with nothing seen below it: its top
     (``upper_surface`` of ``height`` [n], m above the floor) between COUNTER_HEIGHTS, at least
-    COUNTER_TOP_SHARE of its points within COUNTER_DEPTH of that top, and both sides of the minimum-area
-    rectangle of ``xy`` [n, 2] at least COUNTER_MIN_SIDE (so a horizontal slab). Such
-    a thing is a counter, an island or a table whose sides and base were out of view: it stands on the
+    COUNTER_TOP_SHARE of its points within COUNTER_DEPTH of that top, and the bulk of its horizontal
+    positions ``xy`` [n, 2] at least COUNTER_MIN_SPAN across both principal axes (so a horizontal slab).
+    Such a thing is a counter, an island or a table whose sides and base were out of view: it stands on the
     floor even though its lowest visible point is 0.6-1.2 m above it."""
-    from shapely.geometry import MultiPoint
-
     h = np.asarray(height, dtype=np.float64)
     if len(h) < 3:
         return False
     top = upper_surface(h)
     if not COUNTER_HEIGHTS[0] <= top <= COUNTER_HEIGHTS[1]:
         return False
-    on_top = h >= top - COUNTER_DEPTH
-    if on_top.mean() < COUNTER_TOP_SHARE:
+    if (h >= top - COUNTER_DEPTH).mean() < COUNTER_TOP_SHARE:
         return False
-    rect = MultiPoint(np.asarray(xy, dtype=np.float64)).minimum_rotated_rectangle
-    if rect.geom_type != "Polygon":
-        return False
-    c = np.asarray(rect.exterior.coords)
-    return min(float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))) >= COUNTER_MIN_SIDE
+    flat = np.asarray(xy, dtype=np.float64)
+    flat = flat - flat.mean(axis=0)
+    axes = np.linalg.eigh(np.cov(flat.T))[1]
+    lo, hi = np.quantile(flat @ axes, [SPAN_QUANTILE, 1.0 - SPAN_QUANTILE], axis=0)
+    return bool(np.all(hi - lo >= COUNTER_MIN_SPAN))
 
 
 def upward_mask(points: NDArray, shell: RoomShell, neighbours: int, max_angle_deg: float) -> NDArray[np.bool_]:

@@ -16,7 +16,14 @@ from rescene_core.capture import open_capture, write_capture
 from rescene_core.config import SceneGraphConfig
 from rescene_core.records import InstanceId, Plane, Relation, RoomShell, Root, WallPlane
 from rescene_core.scenegraph import fuse_with_report, make_predictor, predict_frames
-from rescene_core.scenegraph.geom import heights, holds_from_below, lower_surface, near_footprint, upward_mask
+from rescene_core.scenegraph.geom import (
+    heights,
+    holds_from_below,
+    lower_surface,
+    near_footprint,
+    seen_only_from_above,
+    upward_mask,
+)
 from rescene_core.scenegraph.geometric import GeometricPredictor
 from rescene_core.scenegraph.priors import floor_contact, instance_geometry, object_support
 from tests.fixtures import Box, box_capture_arrays, look_at, pinhole
@@ -201,3 +208,25 @@ def test_a_tray_holds_the_cup_on_it_despite_the_cup_outline_bled_into_its_mask()
         lower_surface(cup[:, 2]),
         CFG.geometric.support_tol,
     )
+
+
+def test_only_a_large_top_at_counter_height_is_taken_for_a_counter():
+    rng = np.random.default_rng(6)
+
+    def top(x, y, z, n=3000):
+        return np.c_[rng.uniform(0, x, n), rng.uniform(0, y, n), np.full(n, z)]
+
+    def counter(p):
+        return seen_only_from_above(p[:, 2], p[:, :2])
+
+    assert counter(top(1.2, 0.8, 0.9))  # an island's top
+    assert counter(top(0.6, 0.6, 0.72))  # a small table's
+    assert not counter(top(1.2, 0.8, 0.4))  # a coffee table's height: its base is in view from above
+    assert not counter(top(0.8, 0.28, 1.0))  # a wall shelf
+    assert not counter(top(0.4, 0.3, 0.92))  # a tray
+    # a stack of books, 0.25 m across, whose stray points stretch its rectangle to 0.6 m
+    books = np.vstack([rng.uniform((0, 0, 0.75), (0.25, 0.2, 0.85), (3000, 3)), top(0.6, 0.6, 0.8, 20)])
+    assert not counter(books)
+    # a base cabinet seen from the front: its front face reaches far below its top
+    front = np.c_[rng.uniform(0, 1.2, 3000), np.zeros(3000), rng.uniform(0.1, 0.9, 3000)]
+    assert not counter(np.vstack([top(1.2, 0.6, 0.9), front]))
