@@ -177,3 +177,16 @@ def test_cameras_that_never_see_a_floor_are_told_so():
 def test_nearest_axis_names_the_up_to_give():
     assert nearest_axis(np.array([0.1, 0.98, -0.1]))[0] == "0,1,0"
     assert nearest_axis(np.array([0.0, -0.2, -0.97]))[0] == "0,0,-1"
+
+
+def test_two_frames_standing_at_an_island_looking_28_deg_down():
+    # a person at the island, two frames: the cameras' up is 28 deg off, and the old 20 deg window missed
+    rng = np.random.default_rng(28)
+    cams = head_cameras(2, 28.0, 5.0, rng)
+    pts = _surfaces("patches", rng)
+    pts = pts[seen(pts, cams)]
+    pts = pts + rng.normal(0.0, 0.01, pts.shape)
+    assert angle_deg(camera_up(cams), [0, 0, 1]) > 20.0
+    al = estimate_alignment(pts, cams)
+    assert al.method == "floor" and not al.warning
+    assert angle_deg(al.floor_normal_source, [0, 0, 1]) <= 2.0
