@@ -4,7 +4,7 @@ Bodies: the floor slab and one box per wall are static geoms of the world body. 
 wall (``mounts-on``) is a body fixed to the world (no joint); every other object (on the floor, on
 another object, or with no relation) is a free body. Each body has its visual mesh (group 1,
 ``contype = conaffinity = 0``, no mass) and its convex collision pieces (group 3) from
-rescene_core/export/collision.py. Mass = bulk density of the category x the closed mesh's volume
+rescene_core/colliders/decompose.py. Mass = bulk density of the category x the closed mesh's volume
 (rescene_core/export/physics_tables.py); MuJoCo computes the inertia from the collision pieces, whose
 density is set so they carry exactly that mass. Friction per category.
 
@@ -27,10 +27,10 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from rescene_core.export.collision import Decomposition
+from rescene_core.colliders.decompose import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
-from rescene_core.export.shell import floor_height, wall_boxes
+from rescene_core.geometry.room import floor_height, wall_boxes
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
 from rescene_core.names import MJCF_LABEL_TEXT

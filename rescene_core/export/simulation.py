@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from rescene_core import paths
+from rescene_core.colliders import edit_colliders, find_hollow
+from rescene_core.colliders.decompose import Decomposition, DecompositionSettings, decompose_all
 from rescene_core.config import ExportConfig
-from rescene_core.export.collision import Decomposition, DecompositionSettings, decompose_all
-from rescene_core.export.completions import edit_colliders, find_hollow
 from rescene_core.export.mjcf import MIN_MASS, body_kind, build_spec, closed_volume, write_mjcf
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import load_physics_table

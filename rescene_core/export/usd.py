@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from rescene_core.colliders.decompose import Decomposition
 from rescene_core.config import ExportConfig
-from rescene_core.export.collision import Decomposition
 from rescene_core.export.mjcf import BodyRecord
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION

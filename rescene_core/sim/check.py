@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from rescene_core.config import SimcheckConfig
-from rescene_core.export.shell import floor_height
 from rescene_core.exported_scene import ExportedScene
+from rescene_core.geometry.room import floor_height
 from rescene_core.io import write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import RoomShell

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from rescene_core.export.collision import DecompositionSettings, box_pieces, decompose
+from rescene_core.colliders.decompose import DecompositionSettings, box_pieces, decompose
 
 
 def _box(lo, hi) -> trimesh.Trimesh:

@@ -10,14 +10,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from rescene_core.colliders.footing import footing
+from rescene_core.colliders.pieces import BOARD_THICKNESS, Placement, clip_to_mesh, cut_seat
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.completions import (
-    BOARD_THICKNESS,
-    Placement,
-    clip_to_mesh,
-    cut_seat,
-    footing,
-)
 from rescene_core.geometry import sim3
 from rescene_core.records import (
     Completion,
@@ -218,7 +213,8 @@ def test_footing_levels_an_uneven_bottom_and_says_when_none_holds():
 
 
 def test_open_side_needs_a_wall_behind_it_else_faces_the_room():
-    from rescene_core.export.completions import hollow_shell, placement
+    from rescene_core.colliders.hollow import hollow_shell
+    from rescene_core.colliders.pieces import placement
 
     (shelf, book), _ = shelf_scene(with_boards=True)
     far_wall = RoomShell(

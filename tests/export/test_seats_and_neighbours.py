@@ -10,18 +10,12 @@ import numpy as np
 import pytest
 import trimesh
 
+from rescene_core.colliders.edits import completion_pieces
+from rescene_core.colliders.footing import FOOTING_MARGIN, footing
+from rescene_core.colliders.pieces import Placement, carve, placement
+from rescene_core.colliders.seats import Seated, seat_children
+from rescene_core.colliders.separate import evidence_points, overlaps, separate
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.completions import (
-    FOOTING_MARGIN,
-    Placement,
-    Seated,
-    carve,
-    completion_pieces,
-    footing,
-    placement,
-    seat_children,
-)
-from rescene_core.export.separate import evidence_points, overlaps, separate
 from rescene_core.geometry import sim3
 from rescene_core.records import (
     Completion,
@@ -166,7 +160,7 @@ def test_a_box_wider_than_a_thin_generated_shelf_has_its_side_panels_carved(tmp_
 
 
 def test_a_shelf_in_a_corner_opens_towards_the_room():
-    from rescene_core.export.completions import hollow_shell
+    from rescene_core.colliders.hollow import hollow_shell
 
     objects, _, _ = thin_shelf_scene(CORNER_SHELL, x0=-2.0 + 0.151)
     shelf, book = objects
@@ -325,7 +319,7 @@ def test_a_footing_does_not_reach_into_a_neighbour():
 
 
 def test_inside_piece_ignores_degenerate_faces():
-    from rescene_core.export.completions import inside_piece
+    from rescene_core.colliders.pieces import inside_piece
 
     box = _box([0, 0, 0], [1, 1, 1])
     faces = np.vstack([box.faces, [[0, 0, 1]]])  # a zero-area face, as a hull of near-duplicate points can have

@@ -8,7 +8,8 @@ import pytest
 import trimesh
 
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.shell import shell_meshes, wall_extent
+from rescene_core.export.shell import shell_meshes
+from rescene_core.geometry.room import wall_extent
 from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
 from rescene_core.sim import SimcheckConfig, simcheck_run

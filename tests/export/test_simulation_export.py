@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
+from rescene_core.colliders.decompose import DecompositionSettings, decompose
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.collision import DecompositionSettings, decompose
 from rescene_core.export.usd import validate_usd
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Missing, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane

@@ -1,4 +1,4 @@
-"""Free objects' pieces cut at the walls they graze (rescene_core/export/walls.py): on the geometry, in the
+"""Free objects' pieces cut at the walls they graze (rescene_core/colliders/walls.py): on the geometry, in the
 export report, and with the physics check."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from rescene_core.colliders.pieces import placement
+from rescene_core.colliders.walls import MAX_DEPTH, clear_of_walls, trimmed_walls
 from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.export.completions import placement
-from rescene_core.export.walls import MAX_DEPTH, clear_of_walls, trimmed_walls
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
 from tests.fixtures import CORNER_SHELL

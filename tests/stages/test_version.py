@@ -28,7 +28,7 @@ def _append(path, text="\n\ndef _helper_added_by_test():\n    return 1\n"):
 
 
 def test_a_copy_has_the_same_versions_as_the_package(package_copy):
-    assert _versions(package_copy) == code_versions()
+    assert _versions(package_copy) == _versions(PACKAGE_ROOT)
 
 
 def test_a_helper_only_evaluation_imports_changes_evaluation_alone(package_copy):

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.export.completions import Piece, Placement, _slice, _solid
-from rescene_core.export.separate import MIN_DEPTH
-from rescene_core.export.shell import wall_extent
+from rescene_core.colliders.pieces import Piece, Placement, is_solid, slice_piece
+from rescene_core.colliders.separate import MIN_DEPTH
+from rescene_core.geometry.room import wall_extent
 from rescene_core.records import RoomShell, WallPlane
 
 MAX_DEPTH = 0.02
@@ -65,8 +65,8 @@ def clear_of_walls(
             depth = float(-signed.min())
             if depth > MAX_DEPTH or along.max() < 0 or along.min() > length:
                 continue  # a layout fault, or the plane beyond the wall's box (another wing of the room)
-            kept = _slice((world, piece[1]), normal, origin)
-            if not _solid(kept):
+            kept = slice_piece((world, piece[1]), normal, origin)
+            if not is_solid(kept):
                 continue
             out[k] = (place.body(kept[0]), kept[1])  # type: ignore[index]
             cut[str(wall.id)] = round(max(cut.get(str(wall.id), 0.0), depth), 4)

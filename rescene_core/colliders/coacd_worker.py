@@ -1,7 +1,7 @@
 """Run CoACD on one mesh in its own process (``python -I coacd_worker.py IN.npz OUT.npz``).
 
 CoACD can take long or crash on bad meshes; the exporter runs this module in a subprocess with a time
-limit (rescene_core/export/collision.py) so neither takes the export down. IN.npz holds ``vertices``
+limit (rescene_core/colliders/decompose.py) so neither takes the export down. IN.npz holds ``vertices``
 float64 [v, 3], ``faces`` int64 [f, 3] and ``params`` (a JSON string of ``coacd.run_coacd`` keywords);
 OUT.npz gets ``vertices`` float64 [n, 3], ``faces`` int64 [m, 3] of every convex piece concatenated, and
 ``vertex_offsets`` / ``face_offsets`` int64 [pieces + 1] (CSR; face indices local to their piece).

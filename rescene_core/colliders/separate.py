@@ -36,16 +36,16 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from rescene_core.export.completions import (
+from rescene_core.colliders.pieces import (
     CARVE_MARGIN,
     Piece,
     Placement,
-    _ring,
-    _slice,
-    _solid,
     carve,
     face_planes,
+    footprint_ring,
     inside_piece,
+    is_solid,
+    slice_piece,
 )
 
 MIN_DEPTH = 0.002
@@ -189,7 +189,7 @@ def carve_where_other_is(piece: Piece, other_inside: NDArray, own: NDArray) -> l
 
     if len(other_inside) < 3:
         return None
-    ring = _ring(other_inside[:, :2], CARVE_MARGIN)
+    ring = footprint_ring(other_inside[:, :2], CARVE_MARGIN)
     z_lo, z_hi = float(other_inside[:, 2].min()) - CARVE_MARGIN, float(other_inside[:, 2].max()) + CARVE_MARGIN
     inner = Polygon(ring).buffer(-SEPARATE_TOLERANCE, join_style="mitre")
     if inner.is_empty:
@@ -224,10 +224,10 @@ def subtract(piece: Piece, other: Piece) -> list[Piece]:
     rest: Piece | None = piece
     for normal, offset in zip(normals, offsets, strict=True):
         origin = normal * offset
-        beyond = _slice(rest, normal, origin)  # type: ignore[arg-type]
-        if _solid(beyond):
+        beyond = slice_piece(rest, normal, origin)  # type: ignore[arg-type]
+        if is_solid(beyond):
             parts.append(beyond)
-        rest = _slice(rest, -normal, origin)  # type: ignore[arg-type]
+        rest = slice_piece(rest, -normal, origin)  # type: ignore[arg-type]
         if rest is None:
             break
     return parts
@@ -321,8 +321,8 @@ def separate(
                     subtracted.add((node, k))
                     cut_any = True
                 continue
-            world[a][ka] = _slice(pa, -d, c * d)
-            world[b][kb] = _slice(pb, d, c * d)
+            world[a][ka] = slice_piece(pa, -d, c * d)
+            world[b][kb] = slice_piece(pb, d, c * d)
             cut_any = True
             for node, other in ((a, b), (b, a)):
                 entries[node][other]["pieces_cut"] += 1

@@ -9,7 +9,7 @@ furniture's shelves, legs and boards) is cut exactly into boxes on the grid of i
 when no component is exact, or one of the others is not a sound closed surface, the whole mesh goes to
 CoACD. A sound closed mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
 faces, at most ``coacd_max_pieces`` pieces), run in a subprocess with a time limit
-(rescene_core/export/coacd_worker.py), ``decomposition_workers`` at a time. When CoACD fails, times out
+(rescene_core/colliders/coacd_worker.py), ``decomposition_workers`` at a time. When CoACD fails, times out
 or the mesh is not a sound closed surface, the piece is the convex hull of the mesh, and when even that
 is flat or degenerate, the mesh's oriented bounding box thickened to ``min_thickness``; each fallback is
 written in the decomposition's ``notes`` (they go to ``scene/export_report.json``).

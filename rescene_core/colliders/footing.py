@@ -1,0 +1,112 @@
+"""Footings: a free object resting on something whose centre of mass is not over the points it stands on
+gets the hull of its lowest band (see ``rescene_core.colliders.edits``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rescene_core.colliders.pieces import Piece, Placement, centre_of_mass, hull_piece, inside_piece
+
+CONTACT_BAND = 0.001
+"""Collider points within this height (m) of the lowest one are the points an object stands on."""
+
+
+FOOTING_MARGIN = 0.01
+"""The centre of mass must be this far (m) inside the polygon an object stands on."""
+
+
+FOOTING_TILT_DEG = 5.0
+"""A footing holds the centre of mass at least (its height above the footing) x tan(this) inside, when a band
+can (deg): the rotation the physics check still counts as stable."""
+
+
+FOOTING_BANDS = (0.02, 0.05, 0.10, 0.15, 0.25, 0.35, 0.5)
+"""Heights of the footing's band, as fractions of the object's height (the first that holds is used)."""
+
+
+FOOTING_MIN_BAND = 0.01
+"""Smallest band of a footing (m)."""
+
+
+def _support_margin(points_xy: NDArray, centre_xy: NDArray) -> float:
+    """Signed distance (m) of ``centre_xy`` inside the convex hull of ``points_xy`` (negative: outside)."""
+    from shapely.geometry import MultiPoint, Point
+
+    hull = MultiPoint(points_xy).convex_hull
+    if hull.geom_type != "Polygon":
+        return -float(hull.distance(Point(centre_xy))) - 1e-9
+    p = Point(centre_xy)
+    return float(hull.exterior.distance(p)) if hull.contains(p) else -float(hull.exterior.distance(p))
+
+
+def footing(
+    place: Placement,
+    pieces: list[Piece],
+    mass: float = 1.0,
+    load: Iterable[tuple[float, NDArray]] = (),
+    others: NDArray | None = None,
+) -> tuple[Piece | None, dict[str, Any] | None]:
+    """A footing piece (body frame) for an object that would rock on its lowest points, and its report
+    entry; (None, None) when it stands as it is. ``load``: (mass kg, world centre of mass) of what rests
+    on the object (its children, theirs, ...), whose weight it carries; ``mass``: its own (kg). ``others``:
+    world points [n, 3] of neighbours' geometry (meshes, completions), which a footing must not reach into
+    (a band that would is skipped)."""
+    com = centre_of_mass(pieces)
+    if com is None:
+        return None, None
+    masses, centres = [mass], [place.world(com[None])[0]]
+    for m, c in load:
+        masses.append(m)
+        centres.append(np.asarray(c, np.float64))
+    com_w = np.average(np.asarray(centres), axis=0, weights=np.asarray(masses))
+    cw = place.world(np.vstack([v for v, _ in pieces]))
+    zmin = float(cw[:, 2].min())
+    margin = _support_margin(cw[cw[:, 2] <= zmin + CONTACT_BAND, :2], com_w[:2])
+    if margin >= FOOTING_MARGIN:
+        return None, None
+    mesh_w = place.world(place.vertices)
+    height = float(mesh_w[:, 2].max() - zmin)
+    tilt_margin = max(FOOTING_MARGIN, float(com_w[2] - zmin) * np.tan(np.radians(FOOTING_TILT_DEG)))
+    blocked = False
+    holding: list[tuple[Piece, dict[str, Any]]] = []  # bands holding the centre FOOTING_MARGIN inside
+    for frac in FOOTING_BANDS:
+        band = max(FOOTING_MIN_BAND, frac * height)
+        low = mesh_w[mesh_w[:, 2] <= zmin + band]
+        if len(low) < 3:
+            continue
+        held = _support_margin(low[:, :2], com_w[:2])
+        if held < FOOTING_MARGIN:
+            continue
+        flat = low.copy()
+        flat[:, 2] = zmin
+        piece = hull_piece(place.body(np.vstack([low, flat])))
+        if piece is None:
+            continue
+        if others is not None and len(others) and inside_piece(others, (place.world(piece[0]), piece[1])).any():
+            blocked = True
+            continue
+        entry = {
+            "band_m": round(band, 4),
+            "band_fraction_of_height": frac,
+            "support_margin_before_m": round(margin, 4),
+            "support_margin_after_m": round(held, 4),
+            "tilt_margin_m": round(float(tilt_margin), 4),
+            "why": "its centre of mass (with what rests on it) is not over the points it stands on (an uneven "
+            "generated bottom): the hull of its lowest band, down to its lowest point, is added",
+        }
+        if held >= tilt_margin:
+            return piece, entry
+        holding.append((piece, entry))
+    if holding:  # none resists the tilt: the first that holds the centre at all
+        return holding[0]
+    return None, {
+        "band_m": None,
+        "support_margin_before_m": round(margin, 4),
+        "why": f"none added: no band up to {FOOTING_BANDS[-1]:g} of its height holds its centre of mass"
+        + (" without reaching into a neighbour" if blocked else ""),
+    }
