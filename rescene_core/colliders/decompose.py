@@ -7,8 +7,12 @@ piece as it is; a component whose faces are all axis-aligned (a union of boxes: 
 furniture's shelves, legs and boards) is cut exactly into boxes on the grid of its vertex coordinates
 (``box_pieces``). Their method is 'components'. The other components go to CoACD together, in one call;
 when no component is exact, or one of the others is not a sound closed surface, the whole mesh goes to
-CoACD. A sound closed mesh goes to CoACD (``coacd.run_coacd``, simplified first when it has many
-faces, at most ``coacd_max_pieces`` pieces), run in a subprocess with a time limit
+CoACD. A small mesh (its largest extent under ``hull_below_m``, ExportConfig.hull_below_m: a cup, a jar, a
+bowl) that is not exact gets its convex hull instead, method 'hull': CoACD spends tens of seconds on such
+round, finely tessellated shapes (45-95 s each on an egocentric kitchen's cups, jars and bowls), and what
+the hull fills at that size (a cup's inside, a handle's hole) is carved where a child stands in it
+(rescene_core/colliders/seats.py). A sound closed mesh goes to CoACD (``coacd.run_coacd``, simplified
+first when it has many faces, at most ``coacd_max_pieces`` pieces), run in a subprocess with a time limit
 (rescene_core/colliders/coacd_worker.py), ``decomposition_workers`` at a time. When CoACD fails, times out
 or the mesh is not a sound closed surface, the piece is the convex hull of the mesh, and when even that
 is flat or degenerate, the mesh's oriented bounding box thickened to ``min_thickness``; each fallback is
@@ -65,6 +69,7 @@ class DecompositionSettings:
     timeout_s: float = 180.0
     workers: int = 2
     cache_dir: str | None = None
+    hull_below_m: float | None = 0.15
 
     def coacd_params(self, watertight: bool) -> dict[str, object]:
         """Keywords of ``coacd.run_coacd``: a reduced tree search (the defaults cost tens of seconds per
@@ -384,6 +389,11 @@ def decompose(vertices: NDArray, faces: NDArray, settings: DecompositionSettings
     if not rest:
         note = f"exact pieces of {len(parts)} component(s), no CoACD"
         return Decomposition(tuple(exact), "components", round(time.perf_counter() - start, 3), False, (note,))
+    size = float(np.ptp(v, axis=0).max())
+    if settings.hull_below_m is not None and size < settings.hull_below_m:
+        hull, method, notes = hull_pieces(v)
+        note = f"convex hull, no CoACD: a small object ({size:.3f} m across, under {settings.hull_below_m:g} m)"
+        return Decomposition(hull, method, round(time.perf_counter() - start, 3), False, (note, *notes))
     sound = all(not check_mesh(cv, cf) for cv, cf in rest)
     if not exact or not sound:  # CoACD on the mesh as given (its cache key unchanged), as one solid
         return _decompose_coacd(v, f, [], settings)

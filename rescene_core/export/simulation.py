@@ -54,6 +54,7 @@ def decomposition_settings(config: ExportConfig) -> DecompositionSettings:
         timeout_s=config.coacd_timeout_s,
         workers=config.decomposition_workers,
         cache_dir=config.decomposition_cache,
+        hull_below_m=config.hull_below_m,
     )
 
 

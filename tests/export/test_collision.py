@@ -102,3 +102,26 @@ def test_components_none_exact_go_to_coacd_once_as_one_mesh(tmp_path):
     assert dec.method == "coacd" and not any("exact pieces" in n for n in dec.notes)
     assert len(list(tmp_path.rglob("*.npz"))) == 1  # one CoACD call on the whole mesh
     assert len(dec.pieces) <= 4
+
+
+def _cup(radius: float, height: float) -> trimesh.Trimesh:
+    """A cup: a cylinder hollowed from the top to a bottom a tenth of its height thick (concave)."""
+    outer = trimesh.creation.cylinder(radius=radius, height=height, sections=32)
+    inner = trimesh.creation.cylinder(radius=0.8 * radius, height=height, sections=32)
+    inner.apply_translation([0.0, 0.0, 0.1 * height])
+    return trimesh.boolean.difference([outer, inner], engine="manifold")
+
+
+def test_a_small_cup_gets_its_hull_and_no_coacd(tmp_path):
+    cup = _cup(0.04, 0.09)
+    assert cup.volume < 0.9 * cup.convex_hull.volume  # concave: CoACD would cut it
+    dec = decompose(cup.vertices, cup.faces, DecompositionSettings(cache_dir=str(tmp_path)))
+    assert dec.method == "hull" and len(dec.pieces) == 1
+    assert any("small object" in n for n in dec.notes)
+    assert trimesh.Trimesh(*dec.pieces[0]).volume == pytest.approx(cup.convex_hull.volume, rel=1e-6)
+    assert not list(tmp_path.rglob("*.npz"))  # no CoACD ran
+    # the same cup 0.5 m across is above the threshold: CoACD cuts it
+    big = _cup(0.25, 0.5)
+    settings = DecompositionSettings(max_pieces=4, cache_dir=str(tmp_path))
+    assert decompose(big.vertices, big.faces, settings).method == "coacd"
+    assert len(list(tmp_path.rglob("*.npz"))) == 1
