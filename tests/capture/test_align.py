@@ -190,3 +190,21 @@ def test_two_frames_standing_at_an_island_looking_28_deg_down():
     al = estimate_alignment(pts, cams)
     assert al.method == "floor" and not al.warning
     assert angle_deg(al.floor_normal_source, [0, 0, 1]) <= 2.0
+
+
+@pytest.mark.slow
+def test_egocentric_preset_recorded_y_up_finds_its_floor():
+    # the project's head-mounted kitchen walk (cameras' up about 35 deg off), as a y-up headset records it
+    from rescene_core.capture.depth_points import scene_points
+    from rescene_core.capture.importers.layouts import Y_UP_FROM_Z_UP
+    from rescene_core.capture.synth import make_scene
+
+    a = make_scene("egocentric", seed=0).arrays
+    cams = np.einsum("ij,tjk->tik", Y_UP_FROM_Z_UP, np.asarray(a.world_from_cam))
+    pts = scene_points(np.asarray(a.depth), np.asarray(a.K), cams)
+    assert angle_deg(camera_up(cams), [0, 1, 0]) > 25.0
+    al = estimate_alignment(pts, cams)
+    assert al.method == "floor" and angle_deg(al.floor_normal_source, [0, 1, 0]) <= 2.0
+    # the aligned cameras stand at the walk's heights above the floor
+    aligned = np.einsum("ij,tjk->tik", al.aligned_from_source, cams)
+    np.testing.assert_allclose(aligned[:, 2, 3], np.asarray(a.world_from_cam)[:, 2, 3], atol=0.03)
