@@ -128,6 +128,15 @@ def test_empty_and_single_frame_sources_name_the_file(tiny_scene, tmp_path):
         report["alignment"]["method"] == "floor" and _angle(report["alignment"]["floor_normal_source"], [0, 0, 1]) < 1
     )
     assert report["alignment"]["floor_to_camera_up_deg"] > 40
+    # --max-tilt below that view's 44 deg: the floor is rejected for its tilt alone, and the warning says so
+    report = import_capture("panoptic", src, tmp_path / "tight.zarr", ImportOptions(max_tilt=20.0))
+    assert report["alignment"]["method"] == "cameras" and report["alignment"]["max_tilt_deg"] == 20.0
+    assert (
+        "44.4 deg from the cameras' up was rejected only for its tilt: --max-tilt 46 accepts it (now 20)"
+        in (report["warnings"][0])
+    )
+    report = import_capture("panoptic", src, tmp_path / "loose.zarr", ImportOptions(max_tilt=46.0))
+    assert report["alignment"]["method"] == "floor" and not report["warnings"]
     with pytest.raises(ImportInputError, match=r"a single frame \(00006\).*--segment geometric"):
         import_capture("rgbd", src, tmp_path / "geo.zarr", ImportOptions(segment="geometric"))
     with pytest.raises(ImportInputError, match="--max-frames is 0"):
