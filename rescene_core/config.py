@@ -762,6 +762,17 @@ class ExportConfig(_Section):
     Default: the project's choice."""
     decomposition_workers: int = 2
     """CoACD processes running at once. Default: the project's choice."""
+    structure_labels: tuple[str, ...] = ("", "object", "unknown", "counter", "countertop", "kitchen counter", "worktop")
+    """Labels (any case) of objects that may be built-in structure, fixed to the world when they rest on the
+    floor backed onto a wall with a top at counter height (export/structure.py): built-in names and those of a
+    label-free segmentation; an empty tuple fixes nothing. Default: the project's choice."""
+    structure_top_height_m: tuple[float, float] = (0.6, 1.2)
+    """Height range (m above the floor) of the top of built-in structure (counters, fitted shelf units).
+    Default: the project's choice."""
+    structure_wall_gap_m: float = 0.05
+    """Built-in structure comes this close (m) to an observed wall's plane. Default: the project's choice."""
+    structure_min_length_m: float = 1.0
+    """... along at least this much (m) of the wall. Default: the project's choice."""
     hull_below_m: float | None = 0.15
     """An object whose largest dimension (m, as placed) is under this gets its convex hull as its collider,
     no CoACD (cups, jars and bowls took 45-95 s of CoACD each on an egocentric kitchen); None: CoACD for all.

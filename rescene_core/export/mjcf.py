@@ -1,7 +1,8 @@
 """MJCF export (``scene/mjcf/scene.xml`` + ``scene/mjcf/meshes/``), built with MuJoCo's ``mujoco.MjSpec``.
 
 Bodies: the floor slab and one box per wall are static geoms of the world body. An object mounted on a
-wall (``mounts-on``) is a body fixed to the world (no joint); every other object (on the floor, on
+wall (``mounts-on``) and built-in structure (a fitted counter backed onto a wall,
+rescene_core/export/structure.py) are bodies fixed to the world (no joint); every other object (on the floor, on
 another object, or with no relation) is a free body. Each body has its visual mesh (group 1,
 ``contype = conaffinity = 0``, no mass) and its convex collision pieces (group 3) from
 rescene_core/colliders/decompose.py. Mass = bulk density of the category x the closed mesh's volume
@@ -30,11 +31,12 @@ from scipy.spatial.transform import Rotation
 from rescene_core.colliders.decompose import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
+from rescene_core.export.structure import StructureRule, built_in
 from rescene_core.geometry.room import floor_height, wall_boxes
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
 from rescene_core.names import MJCF_LABEL_TEXT
-from rescene_core.records import Relation, RoomShell, SceneGraph
+from rescene_core.records import InstanceId, Relation, RoomShell, SceneGraph
 
 MESH_DIR = "meshes"
 """Mesh files of the MJCF, relative to scene.xml."""
@@ -84,12 +86,22 @@ class BodyRecord:
         }
 
 
-def body_kind(instance: int, graph: SceneGraph | None) -> tuple[str, list[str]]:
-    """'fixed' for an object mounted on something (a wall, or an object that is itself mounted), else 'free'."""
-    edge = (graph.parent_of() if graph is not None else {}).get(instance)
+def body_kind(
+    obj: ExportObject,
+    graph: SceneGraph | None,
+    shell: RoomShell | None = None,
+    structure: StructureRule | None = None,
+) -> tuple[str, list[str]]:
+    """'fixed' for an object mounted on something (a wall, or an object that is itself mounted) and for
+    built-in structure (a fitted counter backed onto a wall, rescene_core/export/structure.py, when
+    ``structure`` is given), else 'free'; and the notes for the export report."""
+    edge = (graph.parent_of() if graph is not None else {}).get(InstanceId(int(obj.instance)))
     if edge is None:
         return "free", ["no scene-graph relation: exported as a free body"]
-    return ("fixed" if edge.relation == Relation.MOUNTS_ON else "free"), []
+    if edge.relation == Relation.MOUNTS_ON:
+        return "fixed", []
+    reason = built_in(obj, graph, shell, structure) if structure is not None else None
+    return ("fixed", [reason]) if reason else ("free", [])
 
 
 def _stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -130,10 +142,12 @@ def build_spec(
     wall_height: float,
     wall_thickness: float,
     floor_thickness: float,
+    structure: StructureRule | None = None,
 ) -> tuple[Any, list[BodyRecord]]:
     """The ``mujoco.MjSpec`` of the scene (mesh files written under ``out_dir/meshes``) and a record per body.
 
     decompositions: node name -> convex pieces of the object's mesh scaled by its pose's scale.
+    structure: the rule fixing built-in structure to the world (``body_kind``); None: only mounts are fixed.
     """
     import mujoco
 
@@ -178,7 +192,7 @@ def build_spec(
         u, _, vt = np.linalg.svd(pose[:3, :3] / scale)
         rot = u @ vt
         quat_xyzw = Rotation.from_matrix(rot).as_quat()
-        kind, notes = body_kind(obj.instance, graph)
+        kind, notes = body_kind(obj, graph, shell, structure)
         density, friction, guesses = table.lookup(obj.label)
         notes += guesses
         vertices = np.asarray(obj.vertices, np.float64) * scale
