@@ -72,13 +72,16 @@ def plan_figure(capture: Capture, path: Path) -> None:
         p, fwd = cams[t, :2, 3], cams[t, :2, 2]
         ax.annotate("", p + fwd * 0.25, p, arrowprops=dict(arrowstyle="-|>", color="tab:orange", lw=0.6))
     al = capture.attrs.get("alignment", {})
+    how = (
+        "NO FLOOR FOUND, up from the cameras" if al.get("method") == "cameras" else f"floor by {al.get('method', '?')}"
+    )
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
     ax.set_title(
         f"{capture.scene_id} ({capture.source}): {len(capture.object_instances)} objects; "
-        f"floor by {al.get('method', '?')}, {al.get('floor_to_camera_up_deg', float('nan')):.2f} deg from camera up",
+        f"{how}, {al.get('floor_to_camera_up_deg', float('nan')):.2f} deg from camera up",
         fontsize=9,
     )
     fig.tight_layout()
