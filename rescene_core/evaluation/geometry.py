@@ -32,10 +32,13 @@ from typing import Any
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+from PIL import Image
 from pydantic import BaseModel, ConfigDict
 from scipy.spatial import cKDTree
 
+from rescene_core.export import ExportConfig, shell_meshes
 from rescene_core.records import Camera
+from rescene_core.render import RayCaster, RenderMesh
 
 
 class GeometryConfig(BaseModel):
@@ -261,7 +264,6 @@ def rendered_depths(
 ) -> Iterable[tuple[NDArray[np.float32], Camera]]:
     """(depth, camera, mesh key per pixel) of ``meshes`` rendered along ``cameras`` (scaled by ``fuse_scale``)
     with the project's ray caster."""
-    from rescene_core.render import RayCaster, RenderMesh
 
     render = [
         RenderMesh.uniform(k if k != 0 else -999999, m.vertices, m.faces, (0.5, 0.5, 0.5))
@@ -320,7 +322,6 @@ def capture_cameras(capture: Any, frames: Sequence[int] | None, stride: int) -> 
 def sensor_reference(capture: Any, config: GeometryConfig) -> PointSet:
     """Fusion (``fuse_depth``) of the capture's own depth frames (every ``fuse_stride``-th, at ``fuse_scale``), each
     fused point labelled with the capture instance of the nearest instance point (0 = none)."""
-    from PIL import Image
 
     if capture.depth is None:
         raise ValueError(f"{capture.path} has no frames/depth")
@@ -385,8 +386,6 @@ def geometry_metrics(
         if not gt_meshes:
             out["not_computed"]["ground_truth"] = "the ground truth has no objects"
         else:
-            from rescene_core.export import ExportConfig, shell_meshes
-
             gt_shell = {-(k + 1): m for k, (_, m) in enumerate(sorted(shell_meshes(gt.shell, ExportConfig()).items()))}
             gt_sampled = sample_meshes(gt_meshes, config)
             gt_refused = refuse({**gt_meshes, **gt_shell}, cameras, config)

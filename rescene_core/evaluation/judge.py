@@ -12,6 +12,7 @@ gives ``status: failed`` with the reason; it never stops the rest of the evaluat
 
 from __future__ import annotations
 
+import base64
 import io
 import json
 import os
@@ -23,7 +24,18 @@ from typing import Any
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+from PIL import Image
 from pydantic import BaseModel, ConfigDict, Field
+
+from rescene_core.config import SceneGraphConfig, VlmClientConfig
+from rescene_core.evaluation.rendering import scene_render_meshes
+from rescene_core.io import read_json, write_bytes_atomic
+from rescene_core.paths import RunPaths
+from rescene_core.records import Camera
+from rescene_core.render import Light, Renderer, Shading
+from rescene_core.scenegraph.backend import TransportError
+from rescene_core.scenegraph.openai_backend import OpenAIPredictor
+from rescene_core.vqa.render import look_at
 
 BASE_URL_ENV = "RESCENE_JUDGE_BASE_URL"
 MODEL_ENV = "RESCENE_JUDGE_MODEL"
@@ -126,12 +138,9 @@ class JudgeRequest:
 
 def _client(config: JudgeConfig):
     """An ``OpenAIPredictor`` (the scene-graph VLM client) whose requests carry several images."""
-    from rescene_core.config import SceneGraphConfig, VlmClientConfig
-    from rescene_core.scenegraph.openai_backend import OpenAIPredictor
 
     class JudgeClient(OpenAIPredictor):
         def request_body(self, query: JudgeRequest) -> dict[str, Any]:  # type: ignore[override]  # only given JudgeRequests
-            import base64
 
             parts: list[dict[str, Any]] = [{"type": "text", "text": query.prompt}]
             for png in query.images:
@@ -194,7 +203,6 @@ def parse_answer(text: str) -> tuple[dict[str, Any] | None, list[str]]:
 
 
 def _png(rgb: NDArray[np.uint8]) -> bytes:
-    from PIL import Image
 
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).save(buf, format="PNG")
@@ -212,10 +220,6 @@ def scene_views(
 ) -> list[NDArray[np.uint8]]:
     """``n`` views from inside the room: eyes near the floor polygon's corners (pulled 25% towards the
     centroid) at 1.6 m, looking at the centroid at 0.6 m; ceiling-light shading."""
-    from rescene_core.evaluation.rendering import scene_render_meshes
-    from rescene_core.records import Camera
-    from rescene_core.render import Light, Renderer, Shading
-    from rescene_core.vqa.render import look_at
 
     if n <= 0 or not placed:
         return []
@@ -258,8 +262,6 @@ def judge_images(
 ) -> tuple[list[str], list[bytes], int]:
     """Render the views and pick the key frames; writes them under RUN/eval/figures/. Returns (relative
     paths, PNG bytes, number of rendered views among them)."""
-    from rescene_core.io import read_json, write_bytes_atomic
-    from rescene_core.paths import RunPaths
 
     names, pngs = [], []
     views = scene_views(placed, shell, capture, config.views, config.image_width, config.image_height, config.hfov_deg)
@@ -282,7 +284,6 @@ def judge_images(
 
 def judge(pngs: list[bytes], rendered: int, config: JudgeConfig) -> dict[str, Any]:
     """Send the rubric and the images; returns {status: ok | failed, scores, comments, attempts, reason}."""
-    from rescene_core.scenegraph.backend import TransportError
 
     client = _client(config)
     legend = f"Images 1-{rendered} are rendered views of the reconstructed scene." + (

@@ -27,9 +27,12 @@ from typing import Any
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+from PIL import Image
 from pydantic import BaseModel, ConfigDict
 
+from rescene_core.evaluation.geometry import scaled_camera
 from rescene_core.records import Camera
+from rescene_core.render import Renderer, RenderMesh, Shading, Texture
 
 
 class RenderingConfig(BaseModel):
@@ -87,7 +90,6 @@ def ssim(
 
 
 def _resize(image: NDArray, size: tuple[int, int], nearest: bool) -> NDArray:
-    from PIL import Image
 
     if (image.shape[1], image.shape[0]) == size:
         return np.asarray(image)
@@ -109,7 +111,6 @@ def scene_render_meshes(
 ):
     """RenderMeshes of the placed objects (id = instance id, albedo = mean instance-point colour) and the
     shell (negative ids; floor / wall albedo from the capture's structural instances)."""
-    from rescene_core.render import RenderMesh, Texture
 
     meshes = []
     for i, (_, mesh) in sorted(placed.items()):
@@ -126,7 +127,6 @@ def scene_render_meshes(
 
 
 def scaled(camera: Camera, scale: float) -> Camera:
-    from rescene_core.evaluation.geometry import scaled_camera
 
     return scaled_camera(camera, scale)
 
@@ -166,7 +166,6 @@ def rendering_metrics(
 ) -> dict[str, Any]:
     """Rendering metrics of the placed scene against the capture's frames that are not in ``key_frames``
     (None: no key frames known, every frame is used and ``frames_note`` says so). Plain JSON types."""
-    from rescene_core.render import Renderer, Shading
 
     config = config or RenderingConfig()
     out: dict[str, Any] = {"protocol": config.model_dump(mode="json"), "not_computed": {}}

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import trimesh
+from PIL import Image
 
 from rescene_core.capture import open_capture
 from rescene_core.evaluation.judge import scene_views
@@ -53,7 +54,6 @@ def _data_url(data: bytes, mime: str) -> str:
 
 
 def _jpeg(rgb: np.ndarray, width: int | None = None) -> str:
-    from PIL import Image
 
     img = Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).convert("RGB")
     if width and img.width > width:
@@ -66,7 +66,6 @@ def _jpeg(rgb: np.ndarray, width: int | None = None) -> str:
 def _png_file(path: Path, width: int | None = None) -> str | None:
     if not path.exists():
         return None
-    from PIL import Image
 
     try:
         return _jpeg(np.asarray(Image.open(path).convert("RGB")), width)

@@ -9,6 +9,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from rescene_core.geometry.completion import cut_mesh
 from rescene_core.names import node_name
 from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
 
@@ -50,7 +51,6 @@ def placed_object(
 ) -> ExportObject:
     """The ExportObject of a placed asset and the completions attachment gave it: the mesh cut at its cut
     planes (what everyone sees), the other completions carried for the simulation exports."""
-    from rescene_core.geometry.completion import cut_mesh
 
     cuts = [c for c in completions if c.kind is CompletionKind.CUT]
     if cuts:

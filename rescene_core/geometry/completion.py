@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
+import trimesh
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
@@ -64,7 +65,6 @@ def cut_mesh(
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """The mesh (vertices [v, 3], faces [f, 3], asset frame) with the part behind each cut plane removed,
     the cut capped when the mesh is closed; a cut that would leave nothing is not applied."""
-    import trimesh
 
     mesh = trimesh.Trimesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), process=False)
     for cut in cuts:

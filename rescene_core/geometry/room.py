@@ -4,7 +4,9 @@ the walls' planes. The exports (GLB, MJCF, USD), the collider edits and the phys
 from __future__ import annotations
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
+from shapely.geometry import Polygon
 
 from rescene_core.records import RoomShell, WallPlane
 
@@ -29,8 +31,6 @@ def wall_extent(shell: RoomShell, wall: WallPlane) -> tuple[NDArray[np.float64],
     part of the room, where furniture standing against the other wall meets it at t = 0 and is thrown off.
     Each end is trimmed back until the wall's back side (``WALL_TRIM_PROBE`` behind its plane) leaves the
     floor polygon; a wall whose back side lies inside the polygon all along keeps its whole segment."""
-    import shapely
-    from shapely.geometry import Polygon
 
     start, end = np.asarray(wall.segment, np.float64)
     length = float(np.linalg.norm(end - start))

@@ -27,6 +27,7 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
 
 from rescene_core.capture import Capture
 from rescene_core.config import HierViewConfig
@@ -212,7 +213,6 @@ class ClipScorer:
         return np.stack([self._text_cache[p] for p in prompts])
 
     def _crop(self, rgb: NDArray[np.uint8], mask: NDArray[np.bool_]):
-        from PIL import Image
 
         rows = np.flatnonzero(mask.any(axis=1))
         cols = np.flatnonzero(mask.any(axis=0))

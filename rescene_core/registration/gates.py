@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.geometry import sim3
@@ -97,7 +98,6 @@ def upright_snap(world_from_asset: sim3.Matrix4, asset_pivot: NDArray[np.float64
     cos = float(np.clip(up @ UP, -1.0, 1.0))
     if norm < 1e-9:
         return None if cos < 0 else world_from_asset
-    from scipy.spatial.transform import Rotation
 
     turn = Rotation.from_rotvec(axis / norm * np.arctan2(norm, cos)).as_matrix()
     new_rot = Rotation.from_matrix(turn @ rot).as_matrix()

@@ -27,7 +27,9 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import trimesh
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from rescene_core.config import RegistrationConfig
 from rescene_core.records import Asset, InstancePoints, Missing, Pose, Stage
@@ -60,7 +62,6 @@ __all__ = [
 
 def sample_source(asset: Asset, config: RegistrationConfig) -> NDArray[np.float64]:
     """``source_samples`` points [n, 3] (asset frame) on the asset's surface, seeded by ``config.seed``."""
-    import trimesh
 
     mesh = trimesh.Trimesh(np.asarray(asset.vertices, np.float64), np.asarray(asset.faces), process=False)
     if not mesh.area > 0:
@@ -73,7 +74,6 @@ def largest_cluster(points: NDArray[np.float64], config: RegistrationConfig) -> 
     """The target's largest DBSCAN cluster (radius ``cluster_eps_spacings`` median NN spacings), or all
     points when that cluster has fewer than ``min_correspondences`` points. points: [n, 3] world metres."""
     import open3d as o3d
-    from scipy.spatial import cKDTree
 
     if len(points) < max(config.min_correspondences, 3):
         return points

@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
+from shapely.geometry import Polygon
+from shapely.ops import triangulate
 
 from rescene_core.geometry import sim3
 from rescene_core.names import node_name
@@ -193,8 +195,6 @@ def object_entity(obj: SceneObject, ns: int) -> dict[str, Any]:
 
 def shell_entities(shell: RoomShell, ns: int, wall_height: float, wall_thickness: float) -> list[dict[str, Any]]:
     """Floor polygon (triangulated, on the floor plane) and one cube per wall segment."""
-    from shapely.geometry import Polygon
-    from shapely.ops import triangulate
 
     entities = []
     n = np.asarray(shell.floor.normal, dtype=np.float64)

@@ -22,9 +22,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
+from scipy.spatial import cKDTree
 
+from rescene_core.render.raycast import RayCaster
 from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.labels import zero_shot_labels
+from rescene_core.segment.project import labelled_meshes, render_masks
 
 
 class SegmentConfig(BaseModel):
@@ -258,7 +261,6 @@ def _clusters(
     Objects on a table touch it, so a cluster with a large horizontal top is split: what stands on the
     top becomes its own segment (``_split_on_support``)."""
     import open3d as o3d
-    from scipy.spatial import cKDTree
 
     out = np.zeros(len(verts), np.int64)
     idx = np.flatnonzero(free)
@@ -351,8 +353,6 @@ def segment_geometric(
     rgb [T, H, W, 3] uint8, depth [T, H, W] float32 metres (0 invalid), K [T, 3, 3], world_from_cam
     [T, 4, 4] (OpenCV axes). clip_model: a local open_clip checkpoint to label segments zero-shot.
     """
-    from rescene_core.render.raycast import RayCaster
-    from rescene_core.segment.project import labelled_meshes, render_masks
 
     cfg = config or SegmentConfig()
     T, H, W = depth.shape

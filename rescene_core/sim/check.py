@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from shapely.geometry import Point, Polygon
 
 from rescene_core.config import SimcheckConfig
 from rescene_core.exported_scene import ExportedScene
@@ -133,7 +134,6 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
     """Run the check on an MJCF written by rescene_core/export/mjcf.py. Returns the result and the
     before/after poses {node: (centre before [3], centre after [3])} for the picture."""
     import mujoco
-    from shapely.geometry import Point, Polygon
 
     started = time.perf_counter()
     model = mujoco.MjModel.from_xml_path(str(mjcf))

@@ -33,11 +33,13 @@ from typing import Any
 
 import numpy as np
 
+from rescene_core.capture import open_capture
+from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.io import write_bytes_atomic, write_json_atomic
 from rescene_core.vqa.config import VqaConfig
 from rescene_core.vqa.dataset import build_vqa, write_vqa
 from rescene_core.vqa.items import TABLE4_TASKS, Category, TaskType, VqaItem
-from rescene_core.vqa.scene import VqaInputError, VqaScene
+from rescene_core.vqa.scene import VqaInputError, VqaScene, read_run, scene_from_ground_truth, scene_from_synth_layout
 
 CARD_FORMAT = "rescene-vqa-dataset"
 IMAGE_TOKEN = "<image>"
@@ -71,14 +73,10 @@ class SceneSource:
     ref: str
 
     def load(self) -> VqaScene:
-        from rescene_core.vqa.scene import read_run, scene_from_ground_truth, scene_from_synth_layout
 
         if self.kind == "run":
             return read_run(self.ref)
         if self.kind == "capture":
-            from rescene_core.capture import open_capture
-            from rescene_core.capture.ground_truth import read_ground_truth
-
             capture = open_capture(self.ref)
             gt = read_ground_truth(capture)
             if gt is None:

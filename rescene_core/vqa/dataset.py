@@ -24,6 +24,7 @@ from rescene_core.vqa.config import VqaConfig
 from rescene_core.vqa.generate import Category, GeneratedQuestions, VqaItem, generate_questions
 from rescene_core.vqa.render import RENDER_BACKEND, Viewpoint, make_renderer, sample_viewpoints, save_png
 from rescene_core.vqa.scene import VqaInputError, VqaScene, read_run
+from rescene_core.vqa.walk import walk_viewpoints
 
 SUMMARY_FORMAT = "rescene-vqa"
 
@@ -45,8 +46,6 @@ def build_vqa(scene: VqaScene, config: VqaConfig | None = None) -> VqaDataset:
     viewpoints: list[Viewpoint] = []
     images: dict[str, np.ndarray] = {}
     if config.sampling == "walk" and config.walks > 0:
-        from rescene_core.vqa.walk import walk_viewpoints
-
         viewpoints, frames = walk_viewpoints(scene, config, make_renderer(scene, config), rng)
         images = {vp.id: frames[k].rgb for k, vp in enumerate(viewpoints)}
     elif config.sampling == "target" and config.views > 0:

@@ -23,11 +23,13 @@ import numpy as np
 
 from rescene_core.records import Relation, Root
 from rescene_core.render import Renderer
+from rescene_core.vqa.build import scene_source
 from rescene_core.vqa.config import VqaConfig
 from rescene_core.vqa.context import distance_band, relative_yaw, yaw_sector
+from rescene_core.vqa.dataset import build_vqa
 from rescene_core.vqa.items import COMPASS, FLOOR_ANSWER, VqaItem, wall_direction
-from rescene_core.vqa.render import Viewpoint, visible_objects
-from rescene_core.vqa.scene import VqaScene, edge_parent_id
+from rescene_core.vqa.render import Viewpoint, make_renderer, visible_objects
+from rescene_core.vqa.scene import VqaScene, edge_parent_id, read_run
 
 LABEL_ONLY = frozenset({"count", "count_in_view", "label_at_view_centre", "facing_wall"})
 """Templates whose question names no object (a label, the view): answerable whatever objects the scene has."""
@@ -246,10 +248,6 @@ def run_faithfulness(run_dir, capture, config: VqaConfig | None = None) -> dict[
     view questions on fresh renders of the ground truth), with the agreement per Table 4 task type.
 
     Also checks the ground truth against itself: questions generated from it must all agree (``gt_self``)."""
-    from rescene_core.vqa.build import scene_source
-    from rescene_core.vqa.dataset import build_vqa
-    from rescene_core.vqa.render import make_renderer
-    from rescene_core.vqa.scene import read_run
 
     config = config or VqaConfig(sampling="walk")
     run_scene = read_run(run_dir)

@@ -9,14 +9,21 @@ CPU renderer (``rescene_core.render``, Open3D ``RaycastingScene``): one id buffe
 from __future__ import annotations
 
 import hashlib
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
+from shapely import contains_xy
+from shapely.geometry import box
+from shapely.ops import unary_union
 
+from rescene_core.export import ExportConfig, shell_meshes
 from rescene_core.geometry.camera import intrinsics_from_fov, look_at
+from rescene_core.io import write_bytes_atomic
 from rescene_core.paths import VQA, VQA_VIEW, in_folder
 from rescene_core.records import Camera
 from rescene_core.render import Light, RenderedFrame, Renderer, RenderMesh, Shading, Texture
@@ -106,7 +113,6 @@ def _label_color(label: str) -> tuple[float, float, float]:
 
 def scene_meshes(scene: VqaScene, config: VqaConfig) -> list[RenderMesh]:
     """Objects (mesh id = instance id) plus the room shell's floor slab and walls (negative ids)."""
-    from rescene_core.export import ExportConfig, shell_meshes
 
     meshes = [
         RenderMesh.uniform(o.id, o.vertices, o.faces, _label_color(o.label), Texture.PLAIN) for o in scene.objects
@@ -139,8 +145,6 @@ def make_renderer(scene: VqaScene, config: VqaConfig) -> Renderer:
 def free_space(scene: VqaScene, config: VqaConfig):
     """Where an eye may stand: the floor polygon shrunk by ``wall_clearance`` minus every object's footprint
     grown by ``object_clearance`` (a shapely geometry, world x/y in metres)."""
-    from shapely.geometry import box
-    from shapely.ops import unary_union
 
     poly = scene.shell.polygon()
     if not poly.is_valid or poly.area <= 0:
@@ -172,7 +176,6 @@ def sample_viewpoints(
 
     Returns the viewpoints and their rendered frames (index in the list -> frame).
     """
-    from shapely import contains_xy
 
     free = free_space(scene, config)
     if config.views == 0:
@@ -215,11 +218,6 @@ def sample_viewpoints(
 
 def save_png(path: str | Path, rgb: NDArray[np.uint8]) -> Path:
     """Write an RGB image uint8 [H, W, 3] as PNG, atomically."""
-    import io
-
-    from PIL import Image
-
-    from rescene_core.io import write_bytes_atomic
 
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgb, np.uint8)).save(buf, format="PNG")

@@ -7,16 +7,22 @@ A ``VqaScene`` is read from an assembled run directory (``read_run``), built fro
 
 from __future__ import annotations
 
+import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
 from numpy.typing import NDArray
 
 from rescene_core import paths
+from rescene_core.assets import load_asset
+from rescene_core.capture.synth.layout import furnish, random_room
+from rescene_core.capture.synth.presets import get_preset
 from rescene_core.exported_scene import ExportedScene
+from rescene_core.geometry import sim3
 from rescene_core.paths import RunPaths
 from rescene_core.records import Edge, InstanceId, Layout, Relation, RoomShell, Root, SceneGraph
 
@@ -65,7 +71,6 @@ class VqaObject:
     @classmethod
     def box(cls, id: int, label: str, center: NDArray | tuple, size: NDArray | tuple) -> VqaObject:
         """An axis-aligned box object: centre [3] and extent [3] in metres, world frame."""
-        import trimesh
 
         mesh = trimesh.creation.box(extents=np.asarray(size, dtype=np.float64))
         mesh.apply_translation(np.asarray(center, dtype=np.float64))
@@ -167,7 +172,6 @@ class VqaScene:
 
 
 def _read(path: Path, what: str) -> Any:
-    import json
 
     if not path.is_file():
         raise VqaInputError(f"{path}: missing ({what}); is this an assembled run directory (`rescene run`)?")
@@ -203,8 +207,6 @@ def read_run(run_dir: str | Path) -> VqaScene:
     world_from_asset per instance) and RUN/instances/<id>/asset.glb (asset-frame meshes); labels come from
     RUN/scene/scene.json (or manifest.json). Raises ``VqaInputError`` naming the missing or broken file.
     """
-    from rescene_core.assets import load_asset
-    from rescene_core.geometry import sim3
 
     run = RunPaths(run_dir)
     if not run.root.is_dir():
@@ -269,9 +271,6 @@ def scene_from_synth_layout(preset: str = "standard", seed: int = 0) -> VqaScene
     the generator's object ids (not capture instance ids) and no object is missed. Edges have confidence 1.
     Use ``scene_from_ground_truth`` to get capture instance ids from a written capture.
     """
-    from rescene_core.capture.synth.layout import furnish, random_room
-    from rescene_core.capture.synth.presets import get_preset
-    from rescene_core.records import InstanceId
 
     cfg = get_preset(preset)
     # default_rng(seed) seeds from SeedSequence(seed): its first child is make_scene's layout stream
