@@ -9,9 +9,10 @@ two priors:
   source's layout), refined by the floor plane when one lies within ``gravity_max_tilt_deg`` of it;
 - otherwise the fused points alone: planes are peeled off by RANSAC and each is counted by the inliers
   whose local normal agrees with it (a floor seen in separate patches is still one plane). The floor is a
-  large plane that has the cameras above it and almost nothing below it, within ``max_tilt_deg`` of the
-  cameras' mean up; among several such planes a lower parallel one wins (the others are furniture tops),
-  and the cameras' mean up only breaks what is left of a tie.
+  large plane that has the cameras above it, held at a plausible roll over it (over a wall they would be
+  rolled 90 deg), and almost nothing below it, within ``max_tilt_deg`` of the cameras' mean up; among
+  several such planes a lower parallel one wins (the others are furniture tops), and the cameras' mean up
+  only breaks what is left of a tie.
 
 ``estimate_alignment`` rotates the floor normal to +z, turns the dominant wall direction onto the x axis
 and puts the floor at z = 0. When no plane qualifies and no gravity was given it falls back to the
@@ -81,7 +82,7 @@ class AlignConfig(BaseModel):
     yaw: bool = True
     """Turn the dominant wall direction onto the x axis (plans and exports read better)."""
     seed: int = 0
-    """Seed of Open3D's RANSAC."""
+    """Seed of Open3D's RANSAC and of the subset it draws from."""
 
 
 @dataclass(frozen=True)
