@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from shapely.geometry import Polygon
 
+from rescene_core.capture.synth.kitchen_objects import kitchen_counter, upper_cabinet
 from rescene_core.capture.synth.layout import Layout, Placed, Room, build, footprint, pose2d
-from rescene_core.capture.synth.objects import kitchen_counter, upper_cabinet
 from rescene_core.capture.synth.presets import SynthPreset
 from rescene_core.records import Relation, Root, WallPlane
 

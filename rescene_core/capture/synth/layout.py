@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 from shapely.geometry import Polygon, box
 from shapely.prepared import prep
 
-from rescene_core.capture.synth.objects import CATEGORIES, ObjectModel, Support, book_stack
+from rescene_core.capture.synth.builder import ObjectModel, Support
+from rescene_core.capture.synth.objects import CATEGORIES, book_stack
 from rescene_core.capture.synth.presets import SynthPreset
 from rescene_core.records import Plane, Relation, RoomShell, Root, WallPlane
 

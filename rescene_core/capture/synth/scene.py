@@ -16,9 +16,9 @@ from shapely.geometry import box as shapely_box
 
 from rescene_core.capture.format import CaptureArrays, points_to_csr, write_capture
 from rescene_core.capture.ground_truth import GroundTruth, GtObject, GtRelation, GtStructure, write_ground_truth
+from rescene_core.capture.synth.builder import WOODS
 from rescene_core.capture.synth.cameras import CameraPlan, plan_cameras
 from rescene_core.capture.synth.layout import Layout, Room, furnish, random_room
-from rescene_core.capture.synth.objects import WOODS
 from rescene_core.capture.synth.panoptic import (
     OBJECT_RENDER_BASE,
     Accumulator,
