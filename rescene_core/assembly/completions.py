@@ -16,6 +16,14 @@ capture saw it (``evidence.evidence_refuses``). Instead:
    part when the points show nothing there. It is a ``Completion`` (kind ``base``) in the object's asset
    frame: contact metrics count it and the exporters add it as a collider, so the simulator sees the same
    object the metrics judged.
+3. Amodal bases (``seen_only_from_above``): an object whose observed points all lie in a band under its top
+   (``amodal_top_band_m``), that band at least ``amodal_min_height_m`` above the floor, was seen only from
+   above: a head-mounted camera looking down at a kitchen island sees its worktop and nothing of its body.
+   Neither its points nor its generated mesh (a slab of the top, as the ``lift`` backend makes it) show
+   where its body stands, so its base spans the mesh's whole footprint from the floor up to the lowest
+   observed point: a block, not a slab on a stem under the mesh's lowest vertices. Each backend generates
+   only what its view showed; attachment completes the rest the same way whatever the backend (a generator
+   that did invent the body down to the floor leaves no gap, and gets no base).
 
 A base is the generator's missing part, not something the capture saw whole, so it never takes space from a
 neighbour: its outline is cut back (``clear_of_neighbours``) wherever another object (not one it carries or
@@ -197,9 +205,28 @@ def clear_of_neighbours(
     return outline, cuts
 
 
+AMODAL_STRAY_SHARE = 0.01
+"""Share of an object's observed points at either end of their heights left aside as strays when the object
+is tested as seen only from above."""
+
+
+def seen_only_from_above(state: LayoutState, i: InstanceId) -> float | None:
+    """The height (m above the floor, at the final pose) of the lowest observed point of object i when its
+    points show nothing below a top (module docstring, item 3), else None."""
+    cfg = state.config
+    obj = state.objects[i]
+    if cfg.amodal_top_band_m is None or obj.points is None or len(obj.points) < BASE_MIN_POINTS:
+        return None
+    pts = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
+    low, high = np.quantile(state.room.floor_distance(pts), [AMODAL_STRAY_SHARE, 1.0 - AMODAL_STRAY_SHARE])
+    if high - low > cfg.amodal_top_band_m or low < cfg.amodal_min_height_m:
+        return None
+    return float(low)
+
+
 def add_bases(state: LayoutState) -> None:
     """Add a base completion to every object in ``state.base_wanted`` that its final pose leaves above the
-    floor (module docstring)."""
+    floor (module docstring, items 2 and 3)."""
     room = state.room
     if abs(room.up[2]) < 1e-9:
         return
@@ -208,10 +235,21 @@ def add_bases(state: LayoutState) -> None:
         bottom = float(room.floor_distance(verts).min())
         if bottom < BASE_MIN_GAP:
             continue
-        outline = _outline(state, i, verts, bottom)
+        top = bottom + BASE_OVERLAP
+        seen_low = seen_only_from_above(state, i)
+        outline: Polygon | None
+        if seen_low is None:
+            outline = _outline(state, i, verts, bottom)
+        else:
+            outline, top = footprint(verts), max(top, seen_low)
+            reason = (
+                f"seen only from above (its observed points within {state.config.amodal_top_band_m:g} m of its top, "
+                f"the lowest {seen_low:.2f} m above the floor): amodal completion, its body down to the floor "
+                "under its whole footprint"
+            )
         if outline is None:
             continue
-        outline, cleared = clear_of_neighbours(state, i, outline, bottom + BASE_OVERLAP)
+        outline, cleared = clear_of_neighbours(state, i, outline, top)
         if outline is None:
             state.log(i, "completions", "no base", reason="neighbours fill the space under the object")
             continue
@@ -222,7 +260,7 @@ def add_bases(state: LayoutState) -> None:
         offset = room.floor_distance(flat)  # height of z = 0 above the floor at each ring point
         up_z = float(room.up[2])
         floor_ring = np.c_[ring, -offset / up_z]
-        top_ring = np.c_[ring, (bottom + BASE_OVERLAP - offset) / up_z]
+        top_ring = np.c_[ring, (top - offset) / up_z]
         world = np.vstack([floor_ring, top_ring])
         points_asset = apply(inverse(state.pose(i)), world)
         state.add_completion(Completion(i, CompletionKind.BASE, points_asset, reason))

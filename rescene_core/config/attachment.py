@@ -142,6 +142,14 @@ class AttachmentConfig(_Section):
     object lies beneath the child: an object rests on something, and the floor is all there is under it.
     Below it the edge is scaled by omega (a box fused at 0.05 onto the floor, seen 0.74 m up, is more likely
     on an object the capture missed). None: never. Default: the project's choice."""
+    amodal_top_band_m: float | None = 0.10
+    """An object resting on the floor whose observed points all lie within this (m) of its highest point (the
+    lowest 1 % aside) was seen only from above (a kitchen island from a head-mounted camera): its base spans
+    its mesh's whole footprint, from the floor up to its lowest observed point, an amodal block instead of a
+    slab on a stem. None: bases only under what the points show. Default: the project's choice."""
+    amodal_min_height_m: float = 0.30
+    """... when that lowest observed point is at least this high (m) above the floor: below it the gap is
+    the mesh's own (a rug, a low tray), not an unseen body. Default: the project's choice."""
     bed_labels: tuple[str, ...] = ("bed",)
     """Labels the bed-wall refinement applies to. Default: the project's choice."""
     cabinet_labels: tuple[str, ...] = ("cabinet", "wardrobe", "dresser", "bookshelf", "bookcase", "shelf")

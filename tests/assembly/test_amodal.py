@@ -1,0 +1,92 @@
+"""Amodal completion: a kitchen island seen only from above (its worktop, nothing of its body) is completed
+down to the floor under its whole footprint, and stands in MuJoCo with a cup on it."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import trimesh
+from shapely.geometry import MultiPoint
+
+from rescene_core.assembly import attach
+from rescene_core.assembly.objects import AssemblyObject
+from rescene_core.assembly.scenes import box_object, placed, rect_room
+from rescene_core.config import AttachmentConfig, ExportConfig
+from rescene_core.export import export_scene
+from rescene_core.export.objects import placed_objects
+from rescene_core.geometry.sim3 import apply
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+
+TOP = 0.92
+"""Height of the island's worktop (m)."""
+
+
+def island_seen_from_above(rng: np.random.Generator) -> AssemblyObject:
+    """A generated island as a single view from above makes it: a worktop slab 1.8 x 0.95 x 0.024 m with a
+    5 cm lip along its front edge (the edge the view grazed), its points on the worktop only."""
+    slab = trimesh.creation.box((1.8, 0.95, 0.024), trimesh.transformations.translation_matrix([0, 0, -0.012]))
+    lip = trimesh.creation.box((1.8, 0.03, 0.05), trimesh.transformations.translation_matrix([0, -0.46, -0.049]))
+    mesh = trimesh.boolean.union([slab, lip], engine="manifold")
+    pose = placed(2.0, 2.5, TOP)
+    top = np.c_[rng.uniform(1.1, 2.9, 3000), rng.uniform(2.03, 2.97, 3000), rng.normal(TOP, 0.003, 3000)]
+    obj = AssemblyObject(InstanceId(1), "kitchen island", np.asarray(mesh.vertices), np.asarray(mesh.faces), pose)
+    return replace(obj, exact_shape=False, points=top)
+
+
+def _scene():
+    rng = np.random.default_rng(0)
+    island = island_seen_from_above(rng)
+    cup = box_object(2, "coffee cup", (0.08, 0.08, 0.1), placed(2.3, 2.6, TOP), exact_shape=False)
+    cup_pts = np.c_[rng.uniform(2.26, 2.34, 300), rng.uniform(2.56, 2.64, 300), rng.uniform(TOP, TOP + 0.1, 300)]
+    cup = replace(cup, points=cup_pts)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.95),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 0.9),
+        )
+    )
+    return {InstanceId(1): island, InstanceId(2): cup}, graph, rect_room()
+
+
+def test_an_island_seen_only_from_above_is_a_block_down_to_the_floor():
+    objects, graph, shell = _scene()
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    pose = layout.world_from_asset[InstanceId(1)]
+    np.testing.assert_allclose(pose, objects[InstanceId(1)].world_from_asset, atol=1e-6)  # kept where seen
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    assert "seen only from above" in base.source
+    world = apply(pose, base.points_asset)
+    assert abs(world[:, 2].min()) < 1e-6  # on the floor
+    assert world[:, 2].max() > TOP - 0.02  # up to the worktop's lowest observed points, not the lip's bottom
+    island_fp = MultiPoint(objects[InstanceId(1)].world_vertices(pose)[:, :2]).convex_hull
+    assert MultiPoint(world[:, :2]).convex_hull.area > 0.99 * island_fp.area  # its whole footprint
+    # with the rule off, the base is only under the mesh's lowest part (the lip) and its top the lip's bottom
+    off = attach(objects, graph, shell, AttachmentConfig(amodal_top_band_m=None)).completions()[InstanceId(1)]
+    assert all("seen only from above" not in c.source for c in off)
+    assert max(apply(pose, c.points_asset)[:, 2].max() for c in off if c.kind.value == "base") < TOP - 0.05
+
+
+def test_an_island_with_its_body_seen_gets_no_amodal_base():
+    objects, graph, shell = _scene()
+    island = objects[InstanceId(1)]
+    rng = np.random.default_rng(1)
+    front = np.c_[rng.uniform(1.1, 2.9, 2000), np.full(2000, 2.03), rng.uniform(0.4, TOP, 2000)]
+    objects[InstanceId(1)] = replace(island, points=np.vstack([island.points, front]))
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    assert all("seen only from above" not in c.source for c in layout.completions().get(InstanceId(1), []))
+
+
+def test_the_completed_island_stands_in_mujoco_with_its_cup(tmp_path):
+    pytest.importorskip("mujoco")
+    pytest.importorskip("pxr")
+    from rescene_core.sim import simcheck_run
+
+    objects, graph, shell = _scene()
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    placed_list = placed_objects(list(objects.values()), layout)
+    export_scene(tmp_path / "scene", placed_list, shell, graph, [], ExportConfig())
+    result = simcheck_run(tmp_path)
+    assert result.summary.free == 2
+    assert result.summary.stable == 2, [(o.node, o.translation, o.rotation_deg) for o in result.objects]
