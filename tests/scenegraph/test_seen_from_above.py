@@ -24,7 +24,7 @@ from rescene_core.scenegraph.geom import (
     seen_only_from_above,
     upward_mask,
 )
-from rescene_core.scenegraph.geometric import GeometricPredictor
+from rescene_core.scenegraph.geometric import GeometricPredictor, compact_on_a_wall, flat_on_a_wall
 from rescene_core.scenegraph.priors import floor_contact, instance_geometry, object_support
 from tests.fixtures import Box, box_capture_arrays, look_at, pinhole
 
@@ -230,3 +230,20 @@ def test_only_a_large_top_at_counter_height_is_taken_for_a_counter():
     # a base cabinet seen from the front: its front face reaches far below its top
     front = np.c_[rng.uniform(0, 1.2, 3000), np.zeros(3000), rng.uniform(0.1, 0.9, 3000)]
     assert not counter(np.vstack([top(1.2, 0.6, 0.9), front]))
+
+
+def test_a_jar_at_the_back_of_a_counter_rests_on_it_and_a_picture_above_one_hangs():
+    """A jar as deep as it is wide, standing against the wall on a counter, lies flat against the wall by
+    the bulk of its points; being compact, it hangs there only when nothing beneath holds it. A picture
+    2 cm above the counter is wide, not compact: it hangs whatever is beneath it."""
+    rng = np.random.default_rng(7)
+    counter = _box_faces((0.4, 0.0, 0.0), (1.6, 0.6, TOP), 3000, rng)  # top and front, seen down to the floor
+    jar = _box_faces((1.0, 0.0, TOP), (1.08, 0.08, TOP + 0.12), 400, rng)
+    picture = _box_faces((0.5, 0.0, TOP + 0.02), (0.9, 0.02, TOP + 0.32), 800, rng)
+    assert compact_on_a_wall(jar, SHELL) and flat_on_a_wall(jar, SHELL, CFG.geometric)
+    assert not compact_on_a_wall(picture, SHELL) and flat_on_a_wall(picture, SHELL, CFG.geometric)
+    got = _decide({1: counter, 2: jar, 3: picture}, SHELL)
+    assert got[1] == ("rests-on", "floor")
+    assert got[2] == ("rests-on", 1)
+    assert got[3] == ("mounts-on", "wall")
+    assert _decide({2: jar}, SHELL)[2] == ("mounts-on", "wall")  # nothing beneath holds it
