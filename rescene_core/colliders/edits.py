@@ -129,8 +129,11 @@ def completion_pieces(obj: PlacedMesh, place: Placement) -> tuple[list[Piece], l
             if c.kind is CompletionKind.SUPPORT_PLANE
             else "convex hull of the base's points",
         }
+        world_z = place.world(np.asarray(c.points_asset) * place.scale)[:, 2]
         if c.kind is CompletionKind.SUPPORT_PLANE:
-            entry["height_m"] = round(float(place.world(np.asarray(c.points_asset) * place.scale)[:, 2].mean()), 4)
+            entry["height_m"] = round(float(world_z.mean()), 4)
+        else:
+            entry["span_z_m"] = [round(float(world_z.min()), 4), round(float(world_z.max()), 4)]
         if hull is None:
             entry["collider"] = "none: the solid is flat or degenerate"
         else:

@@ -1,6 +1,8 @@
 """The simulation exports of an assembled scene: MJCF (rescene_core/export/mjcf.py), USD
 (rescene_core/export/usd.py) and ``scene/export_report.json``, every value the exporter guessed or
-substituted, per object.
+substituted, per object, and every completion attachment added to an object's mesh (``completions``: a
+support plane's board, a base, an amodal base under an object seen only from above; its node, instance,
+label, kind, source and collider; a cut is applied to the mesh itself and is not listed).
 
 The files' names under the scene directory are the run directory's (rescene_core/paths.py), taken
 relative to its ``scene/``.
@@ -138,6 +140,11 @@ def export_simulation(
         ],
         "guessed": sum(1 for b in bodies if b.notes),
         "completions_added": sum(len(e.completions) for e in edits.values()),
+        "completions": [
+            {"node": b.node, "instance": b.instance, "label": b.label} | entry
+            for b in bodies
+            for entry in edits[b.node].completions
+        ],
         "hollow_shells": sorted(n for n, e in edits.items() if e.hollow),
         "seats_cut": sum(sum(1 for s in e.seats if s.get("cut")) for e in edits.values()),
         "footings": sorted(n for n, e in edits.items() if e.footing and e.footing.get("band_m")),

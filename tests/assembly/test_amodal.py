@@ -3,6 +3,7 @@ down to the floor under its whole footprint, and stands in MuJoCo with a cup on 
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -87,6 +88,10 @@ def test_the_completed_island_stands_in_mujoco_with_its_cup(tmp_path):
     layout = attach(objects, graph, shell, AttachmentConfig())
     placed_list = placed_objects(list(objects.values()), layout)
     export_scene(tmp_path / "scene", placed_list, shell, graph, [], ExportConfig())
+    report = json.loads((tmp_path / "scene" / "export_report.json").read_text())
+    listed = [c for c in report["completions"] if c["instance"] == 1 and c["kind"] == "base"]
+    assert len(listed) == 1 and "seen only from above" in listed[0]["source"]
+    assert listed[0]["span_z_m"][0] == pytest.approx(0.0, abs=1e-6) and listed[0]["span_z_m"][1] > TOP - 0.02
     result = simcheck_run(tmp_path)
     assert result.summary.free == 2
     assert result.summary.stable == 2, [(o.node, o.translation, o.rotation_deg) for o in result.objects]
