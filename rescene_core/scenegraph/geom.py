@@ -89,7 +89,7 @@ def holds_from_below(
     child_xy: [m, 2] the child's points' horizontal positions; child_bottom: the child's lower contact
     surface (m); tol: ``support_tol``. True when the instance reaches further down than the child's bottom
     (furniture seen down to its base, or a shelf unit: the child may stand on any shelf of it), or when its
-    points around the child rise no higher than the child's bottom there, in bulk (the 1 - SPAN_QUANTILE
+    points around the child rise no higher than ``tol`` above the child's bottom, in bulk (the 1 - SPAN_QUANTILE
     quantile: the child's own outline bleeds into the parent's mask, on the synthetic egocentric scenes 1%
     of a tray's points around a jar on it reach the jar's top) and the child's centre (median position) is
     over it (inside the convex hull of its points): its top is where the child stands, a tray, or a
