@@ -95,3 +95,22 @@ def test_the_completed_island_stands_in_mujoco_with_its_cup(tmp_path):
     result = simcheck_run(tmp_path)
     assert result.summary.free == 2
     assert result.summary.stable == 2, [(o.node, o.translation, o.rotation_deg) for o in result.objects]
+
+
+def test_a_generator_that_made_the_body_gets_no_base_and_the_same_block():
+    # a generator that invents the island's body down to the floor (as a learned single-view model may) and
+    # the slab the lift backend makes end as the same solid: the body from the mesh, or from the base
+    objects, graph, shell = _scene()
+    slab = objects[InstanceId(1)]
+    block = trimesh.creation.box((1.8, 0.95, TOP), trimesh.transformations.translation_matrix([0, 0, -TOP / 2]))
+    objects[InstanceId(1)] = replace(slab, vertices=np.asarray(block.vertices), faces=np.asarray(block.faces))
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    assert not [c for c in layout.completions().get(InstanceId(1), []) if c.kind.value == "base"]
+    solid = objects[InstanceId(1)].world_vertices(layout.world_from_asset[InstanceId(1)])
+    objects, graph, shell = _scene()
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    pose = layout.world_from_asset[InstanceId(1)]
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    completed = np.vstack([objects[InstanceId(1)].world_vertices(pose), apply(pose, base.points_asset)])
+    np.testing.assert_allclose(completed.min(axis=0), solid.min(axis=0), atol=0.02)
+    np.testing.assert_allclose(completed.max(axis=0), solid.max(axis=0), atol=0.02)
