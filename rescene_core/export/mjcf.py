@@ -20,6 +20,7 @@ Frames: world z up, metres, as the run. A body's frame is the object's pose with
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,6 @@ from scipy.spatial.transform import Rotation
 from rescene_core.colliders.decompose import Decomposition
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION, PhysicsTable
-from rescene_core.export.structure import StructureRule, built_in
 from rescene_core.geometry.room import floor_height, wall_boxes
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_bytes_atomic
@@ -87,20 +87,17 @@ class BodyRecord:
 
 
 def body_kind(
-    obj: ExportObject,
-    graph: SceneGraph | None,
-    shell: RoomShell | None = None,
-    structure: StructureRule | None = None,
+    instance: int, graph: SceneGraph | None, built_in: Mapping[int, str] | None = None
 ) -> tuple[str, list[str]]:
     """'fixed' for an object mounted on something (a wall, or an object that is itself mounted) and for
-    built-in structure (a fitted counter backed onto a wall, rescene_core/export/structure.py, when
-    ``structure`` is given), else 'free'; and the notes for the export report."""
-    edge = (graph.parent_of() if graph is not None else {}).get(InstanceId(int(obj.instance)))
+    built-in structure (``built_in``: instance -> why, rescene_core/export/structure.py), else 'free'; and
+    the notes for the export report."""
+    edge = (graph.parent_of() if graph is not None else {}).get(InstanceId(int(instance)))
     if edge is None:
         return "free", ["no scene-graph relation: exported as a free body"]
     if edge.relation == Relation.MOUNTS_ON:
         return "fixed", []
-    reason = built_in(obj, graph, shell, structure) if structure is not None else None
+    reason = (built_in or {}).get(int(instance))
     return ("fixed", [reason]) if reason else ("free", [])
 
 
@@ -142,12 +139,13 @@ def build_spec(
     wall_height: float,
     wall_thickness: float,
     floor_thickness: float,
-    structure: StructureRule | None = None,
+    built_in: Mapping[int, str] | None = None,
 ) -> tuple[Any, list[BodyRecord]]:
     """The ``mujoco.MjSpec`` of the scene (mesh files written under ``out_dir/meshes``) and a record per body.
 
     decompositions: node name -> convex pieces of the object's mesh scaled by its pose's scale.
-    structure: the rule fixing built-in structure to the world (``body_kind``); None: only mounts are fixed.
+    built_in: instance -> why it is built-in structure, fixed to the world (``body_kind``); None: only
+    mounted objects are fixed.
     """
     import mujoco
 
@@ -192,7 +190,7 @@ def build_spec(
         u, _, vt = np.linalg.svd(pose[:3, :3] / scale)
         rot = u @ vt
         quat_xyzw = Rotation.from_matrix(rot).as_quat()
-        kind, notes = body_kind(obj, graph, shell, structure)
+        kind, notes = body_kind(obj.instance, graph, built_in)
         density, friction, guesses = table.lookup(obj.label)
         notes += guesses
         vertices = np.asarray(obj.vertices, np.float64) * scale

@@ -25,7 +25,7 @@ from rescene_core.config import ExportConfig
 from rescene_core.export.mjcf import MIN_MASS, body_kind, build_spec, closed_volume, write_mjcf
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import load_physics_table
-from rescene_core.export.structure import StructureRule
+from rescene_core.export.structure import StructureRule, built_in
 from rescene_core.export.usd import write_usd
 from rescene_core.geometry.sim3 import scale_of
 from rescene_core.io import write_json_atomic
@@ -97,8 +97,8 @@ def export_simulation(
         decompositions[name] = Decomposition((), "shell", 0.0, False, ("hollow shell and boards, no decomposition",))
     decompose_s = time.perf_counter() - started
     pieces = {name: list(dec.pieces) for name, dec in decompositions.items()}
-    structure = structure_rule(config)
-    kinds = {o.node_name: body_kind(o, graph, shell, structure)[0] for o in objects}
+    fixed_structure = built_in(objects, graph, shell, structure_rule(config))
+    kinds = {o.node_name: body_kind(o.instance, graph, fixed_structure)[0] for o in objects}
     masses = {}
     for o in objects:
         density = table.lookup(o.label)[0]
@@ -119,7 +119,7 @@ def export_simulation(
         config.wall_height,
         config.wall_thickness,
         config.floor_thickness,
-        structure,
+        fixed_structure,
     )
     write_mjcf(spec, mjcf_dir)
     usd_rel = _in_scene(paths.SCENE_USDC if config.usd_binary else paths.SCENE_USDA)

@@ -1,5 +1,5 @@
-"""Built-in structure: a counter backed onto a wall is fixed to the world; movable furniture, a counter
-standing free in the room and a short piece by a wall stay free bodies."""
+"""Built-in structure: a counter backed onto a wall, alone or as units of a fitted run, is fixed to the world;
+movable furniture, a counter standing free in the room and a short piece by a wall stay free bodies."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import trimesh
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.export.mjcf import body_kind
 from rescene_core.export.simulation import structure_rule
+from rescene_core.export.structure import built_in
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Plane, Relation, RoomShell, Root, SceneGraph, WallPlane
 
@@ -36,14 +37,31 @@ def _on_floor(*objects: ExportObject) -> SceneGraph:
 RULE = structure_rule(ExportConfig())
 
 
+def _kind(*objects: ExportObject, graph: SceneGraph | None = None, rule=RULE) -> dict[int, str]:
+    graph = graph or _on_floor(*objects)
+    fixed = built_in(objects, graph, SHELL, rule)
+    return {o.instance: body_kind(o.instance, graph, fixed)[0] for o in objects}
+
+
 def test_an_unlabelled_counter_backed_onto_a_wall_is_fixed():
     counter = _box(1, "object", (2.4, 0.6, 0.9), (0.0, -1.69))  # its back 1 cm from the wall
-    kind, notes = body_kind(counter, _on_floor(counter), SHELL, RULE)
-    assert kind == "fixed" and "built-in structure" in notes[0] and "wall 0" in notes[0]
-    labelled = _box(1, "Kitchen Counter", (2.4, 0.6, 0.9), (0.0, -1.69))
-    assert body_kind(labelled, _on_floor(labelled), SHELL, RULE)[0] == "fixed"
-    # without the rule only mounts are fixed
-    assert body_kind(counter, _on_floor(counter), SHELL)[0] == "free"
+    graph = _on_floor(counter)
+    (reason,) = built_in([counter], graph, SHELL, RULE).values()
+    assert "built-in structure" in reason and "wall 0" in reason
+    assert body_kind(1, graph, {1: reason}) == ("fixed", [reason])
+    assert _kind(_box(1, "Kitchen Counter", (2.4, 0.6, 0.9), (0.0, -1.69))) == {1: "fixed"}
+    # without the rule (no built-in list) only mounted objects are fixed
+    assert body_kind(1, graph)[0] == "free"
+
+
+def test_the_units_of_a_fitted_run_are_fixed_together():
+    # three 0.8 m units side by side: each shorter than the 1 m a run needs, together 2.4 m
+    units = [_box(k + 1, "kitchen counter", (0.8, 0.6, 0.9), (-0.8 + 0.8 * k, -1.69)) for k in range(3)]
+    assert _kind(*units) == {1: "fixed", 2: "fixed", 3: "fixed"}
+    # one unit alone is a cabinet by a wall; two with a 0.3 m gap between them are two
+    assert _kind(units[0]) == {1: "free"}
+    apart = _box(3, "kitchen counter", (0.8, 0.6, 0.9), (1.1, -1.69))
+    assert _kind(units[0], apart) == {1: "free", 3: "free"}
 
 
 @pytest.mark.parametrize(
@@ -57,14 +75,13 @@ def test_an_unlabelled_counter_backed_onto_a_wall_is_fixed():
     ],
 )
 def test_what_is_not_built_in_stays_free(label, size, centre, why):
-    obj = _box(1, label, size, centre)
-    assert body_kind(obj, _on_floor(obj), SHELL, RULE)[0] == "free", why
+    assert _kind(_box(1, label, size, centre)) == {1: "free"}, why
 
 
 def test_a_counter_resting_on_another_object_stays_free():
     counter = _box(1, "object", (2.4, 0.6, 0.9), (0.0, -1.69))
     graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, InstanceId(2)),))
-    assert body_kind(counter, graph, SHELL, RULE)[0] == "free"
+    assert _kind(counter, graph=graph) == {1: "free"}
 
 
 def test_the_export_fixes_the_counter_and_says_why(tmp_path):
