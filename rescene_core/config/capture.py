@@ -34,6 +34,10 @@ class ShellConfig(_Section):
     merge_distance: float = 0.2
     """Parallel wall planes closer than this, with overlapping segments, are one wall (noisy depth splits a
     wall into slabs) (m). Default: the project's choice."""
+    wall_shadow_overlap: float = 0.5
+    """A wall plane more than merge_distance in front of a parallel wall, overlapping it along the wall by
+    more than this fraction of the shorter segment, is a furniture face, not the room's boundary (dropped).
+    Default: the project's choice."""
     wall_refine_band: float = 0.15
     """Half-width of the slab a wall plane is refitted to (median offset, line fit of its footprint) (m).
     Default: the project's choice."""

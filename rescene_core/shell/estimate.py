@@ -206,6 +206,32 @@ def _merge(walls: list[_Wall], config: ShellConfig, width: float) -> list[_Wall]
     return merged
 
 
+def _outermost(walls: list[_Wall], config: ShellConfig) -> list[_Wall]:
+    """Drop a wall plane that stands in front of another wall of the same direction over most of its length
+    (their segments overlap along the wall by more than ``wall_shadow_overlap`` of the shorter one): the room
+    ends at the wall behind. Wall-labelled points on a furniture face (wall cabinets, a mask that drifted
+    onto them) otherwise give a second, inner wall that pushes everything standing under it into the room.
+    A notch of an L-shaped room or an alcove has parallel walls side by side, not one behind the other."""
+    cos_merge = np.cos(np.radians(config.merge_angle_deg))
+    dropped: set[int] = set()
+    for i, a in enumerate(walls):
+        for j, b in enumerate(walls):
+            if i == j or j in dropped or float(a.normal @ b.normal) < cos_merge:
+                continue
+            # b lies behind a (a's normal points into the room): a's plane has b's points on its outer side
+            foot_b = -b.offset * b.normal
+            if float(a.normal @ foot_b) + a.offset >= -config.merge_distance:
+                continue
+            shorter = min(a.s_range[1] - a.s_range[0], b.s_range[1] - b.s_range[0])
+            if shorter > 0 and _overlap(a, b) > config.wall_shadow_overlap * shorter:
+                dropped.add(i)
+                break
+    kept = [w for k, w in enumerate(walls) if k not in dropped]
+    if dropped:
+        log.info("room shell: %d wall plane(s) in front of another wall dropped", len(dropped))
+    return kept
+
+
 def _largest(geom) -> Polygon | None:
     if geom.is_empty:
         return None
@@ -440,7 +466,7 @@ def _estimate_shell(capture: Capture, config: ShellConfig) -> RoomShell:
         width = config.ransac_distance
         above = thin[thin[:, 2] > floor_z + 3 * config.ransac_distance]
         walls = _vertical_planes(above, config, inside, thin[:, :2], width)
-    walls = _merge(walls, config, width)[: config.max_walls]
+    walls = _outermost(_merge(walls, config, width), config)[: config.max_walls]
     # Wall points mark the room's outline where furniture hides the floor; the walls then cut what lies behind.
     outline_xy = floor_xy
     if wall_ids:
