@@ -154,7 +154,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.out is None:
         print("--out DIR is required", file=sys.stderr)
         return 2
-    options = {}
+    options: dict[str, object] = {}
+    if args.held_out is not None:  # only the suites with a held-out column take it; run_suite says which do not
+        options["held_out"] = args.held_out
+    if args.shake:
+        options["shake"] = True
     if args.suite == "pipeline":  # the suite measures the flow: the command line hands it the Prefect harness
         from flows.bench import PrefectHarness
 
@@ -217,7 +221,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="run a benchmark suite; prints a table and writes DIR/<suite>.json")
     p.add_argument("suite", nargs="?")
     p.add_argument("--out", type=Path)
-    p.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-4"))
+    p.add_argument("--seeds", type=parse_seeds, default=parse_seeds("0-4"), help="development seeds (default 0-4)")
+    p.add_argument(
+        "--held-out",
+        type=parse_seeds,
+        default=None,
+        metavar="SEEDS",
+        help="held-out seeds, e.g. 100-119, reported in their own block beside --seeds (sim and assembly suites)",
+    )
+    p.add_argument("--shake", action="store_true", help="also check each scene with the room shaken (sim suite)")
     p.add_argument(
         "--preset",
         default="standard",

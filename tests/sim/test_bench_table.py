@@ -10,6 +10,7 @@ def test_table_lists_layouts_unstable_objects_and_errors():
         "failed": 0,
         "free_objects": 10,
         "stable_fraction": 0.9,
+        "stable_fraction_min": 0.9,
         "penetration_t0_max": 0.004,
         "penetration_t0_mean": 0.0005,
         "fell_through": 0,
@@ -22,10 +23,16 @@ def test_table_lists_layouts_unstable_objects_and_errors():
     result = {
         "preset": "standard",
         "seeds": [0],
-        "summary": {"gt": summary},
+        "summary": {"development": {"seeds": [0], "standard": {"gt": summary}}},
         "scenes": [
-            {"layout": "gt", "preset": "standard", "seed": 0, "unstable": ["obj_3_chair"]},
-            {"layout": "pipeline", "preset": "standard", "seed": 0, "error": "rescene run exited 1\ntail"},
+            {"seed_set": "development", "layout": "gt", "preset": "standard", "seed": 0, "unstable": ["obj_3_chair"]},
+            {
+                "seed_set": "development",
+                "layout": "pipeline",
+                "preset": "standard",
+                "seed": 0,
+                "error": "rescene run exited 1\ntail",
+            },
         ],
     }
     text = table(result)
