@@ -18,6 +18,9 @@ the ground-truth meshes registered to the same instance points by the same regis
 Stages: none, relations (relational layer only), repair (+ room/wall repair), full (+ depenetration).
 Per stage: oob_rate, collision_pairs, collision_rate, floor/wall/support contact pass rates,
 pose_err_median (m, bounding-box centre vs ground truth), rot_err_median (deg), seconds (attach only).
+Seed sets: the development seeds (``--seeds``, 0-4 by default: development decisions are made on them) and
+the held-out seeds (``--held-out``, e.g. 100-119: reported as they come) run alike; the summary has one block
+per set, each with its seeds and the same figures, never pooled into one mean.
 Scaling: the full solver on grids of 20 and 80 perturbed boxes.
 """
 
@@ -34,6 +37,7 @@ from rescene_core.assembly import AssemblyObject, attach
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.scenes import grid_scene
 from rescene_core.assembly.transforms import rigid_change, rotation_about, translation
+from rescene_core.bench import format_seeds, seed_sets
 from rescene_core.config import AttachmentConfig
 from rescene_core.evaluation.structural import structural_metrics
 from rescene_core.records import Edge, InstanceId, RoomShell, Root, SceneGraph
@@ -305,84 +309,107 @@ def draw_plan(path: Path, shell: RoomShell, objects: dict, panels: dict[str, dic
     plt.close(fig)
 
 
-def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
+def perturbed_scene(preset: str, seed: int, work_dir: Path, plan: bool = False) -> dict[str, Any]:
+    """The gt-perturbed start of one scene, stage by stage; with ``plan`` its before/after plan is drawn
+    to ``work_dir/plans/<preset>_<seed>.png``."""
+    gt_objects, graph, shell, source = ground_truth_layout(preset, seed)
+    # the solver resolves the wall root itself: the graph names no concrete wall
+    graph = SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in graph.edges))
+    start_objects, modes = perturb(gt_objects, graph, shell, seed)
+    gt_metrics = structural_metrics(gt_objects, None, graph, shell)
+    stage_poses: dict[str, dict] = {}
+    stages = run_stages(gt_objects, start_objects, graph, shell, stage_poses)
+    if plan:
+        panels = {
+            "ground truth": _panel({i: o.world_from_asset for i, o in gt_objects.items()}, gt_metrics),
+            "perturbed (before)": _panel(stage_poses["none"], stages["none"]),
+            "full attachment (after)": _panel(stage_poses["full"], stages["full"]),
+        }
+        draw_plan(work_dir / "plans" / f"{preset}_{seed}.png", shell, start_objects, panels)
+    return {
+        "preset": preset,
+        "seed": seed,
+        "source": source,
+        "objects": len(gt_objects),
+        "start": "gt-perturbed",
+        "graph": "gt",
+        "failures": {m: sum(1 for v in modes.values() if v == m) for m in FAILURE_MODES},
+        "ground_truth": {
+            k: gt_metrics[k]
+            for k in ("oob_rate", "collision_pairs", "floor_contact_pass", "wall_contact_pass", "support_contact_pass")
+        },
+        "stages": stages,
+    }
+
+
+def summarise(
+    scenes: list[dict[str, Any]],
+    registration: list[dict[str, Any]],
+    gt_presets: tuple[str, ...],
+    registration_presets: tuple[str, ...],
+) -> dict[str, Any]:
+    """Means over the scenes of one seed set: per gt-perturbed preset, and per registration start
+    (``registration_key``: preset, graph, shapes) with the physics line under the fused graph's."""
+    summary: dict[str, Any] = {}
+    for name in gt_presets:
+        rows = [s for s in scenes if s["preset"] == name]
+        if not rows:
+            continue
+        summary[name] = {stage: {k: _mean([r["stages"][stage][k] for r in rows]) for k in METRICS} for stage in STAGES}
+        summary[name]["full"]["seconds_max"] = max(r["stages"]["full"]["seconds"] for r in rows)
+    for name in registration_presets:
+        rows = [r for r in registration if r["preset"] == name]
+        if not rows:
+            continue
+        for shapes, field in zip(REGISTRATION_SHAPES, ("graphs", "exact_shapes"), strict=True):
+            for graph_name in REGISTRATION_GRAPHS:
+                summary[registration_key(name, graph_name, shapes)] = {
+                    stage: {
+                        k: _mean([r[field][graph_name][stage][k] for r in rows]) for k in (*METRICS, "pose_err_mean")
+                    }
+                    for stage in STAGES
+                }
+        summary[registration_key(name, "fused")]["physics"] = physics_summary(rows)
+    return summary
+
+
+def run(seeds: list[int], preset: str, work_dir: Path, held_out: list[int] | None = None) -> dict[str, Any]:
     """Run the suite on both presets from gt-perturbed poses; from registration poses on ``preset`` (``all``:
     both presets; the registration start runs the whole pipeline on each capture once, cached in ``work_dir``).
-    A preset of ``EXTRA_PRESETS`` is measured from both starts as well."""
+    A preset of ``EXTRA_PRESETS`` is measured from both starts as well.
+
+    Seed sets (``seed_sets``): the development ``seeds`` and the ``held_out`` seeds are run alike and
+    summarised apart, one summary block each with its seeds; every scene names its ``seed_set``."""
     work_dir = Path(work_dir)
     selectable = PRESETS + EXTRA_PRESETS
     registration_presets = PRESETS if preset == "all" else (preset if preset in selectable else "standard",)
     gt_presets = PRESETS + ((preset,) if preset in EXTRA_PRESETS else ())
-    scenes = []
-    for name in gt_presets:
-        for seed in seeds:
-            gt_objects, graph, shell, source = ground_truth_layout(name, seed)
-            # the solver resolves the wall root itself: the graph names no concrete wall
-            graph = SceneGraph(tuple(Edge(e.child, e.relation, e.parent, e.confidence) for e in graph.edges))
-            start_objects, modes = perturb(gt_objects, graph, shell, seed)
-            gt_metrics = structural_metrics(gt_objects, None, graph, shell)
-            stage_poses: dict[str, dict] = {}
-            stages = run_stages(gt_objects, start_objects, graph, shell, stage_poses)
-            scenes.append(
-                {
-                    "preset": name,
-                    "seed": seed,
-                    "source": source,
-                    "objects": len(gt_objects),
-                    "start": "gt-perturbed",
-                    "graph": "gt",
-                    "failures": {m: sum(1 for v in modes.values() if v == m) for m in FAILURE_MODES},
-                    "ground_truth": {
-                        k: gt_metrics[k]
-                        for k in (
-                            "oob_rate",
-                            "collision_pairs",
-                            "floor_contact_pass",
-                            "wall_contact_pass",
-                            "support_contact_pass",
-                        )
-                    },
-                    "stages": stages,
-                }
-            )
-            if seed == seeds[0]:
-                panels = {
-                    "ground truth": _panel({i: o.world_from_asset for i, o in gt_objects.items()}, gt_metrics),
-                    "perturbed (before)": _panel(stage_poses["none"], stages["none"]),
-                    "full attachment (after)": _panel(stage_poses["full"], stages["full"]),
-                }
-                draw_plan(work_dir / "plans" / f"{name}_{seed}.png", shell, start_objects, panels)
-    summary = {}
-    for name in gt_presets:
-        rows = [s for s in scenes if s["preset"] == name]
-        summary[name] = {stage: {k: _mean([r["stages"][stage][k] for r in rows]) for k in METRICS} for stage in STAGES}
-        summary[name]["full"]["seconds_max"] = max(r["stages"]["full"]["seconds"] for r in rows)
     have_registration = all(importlib.util.find_spec(m) for m in ("rescene_core.registration", "rescene_core.assets"))
     not_run: dict[str, str] = {}
+    if not have_registration:
+        not_run["registration_start"] = "rescene_core.registration / rescene_core.assets not importable"
+    scenes: list[dict[str, Any]] = []
     registration: list[dict[str, Any]] = []
-    if have_registration:
-        for name in registration_presets:
-            for seed in seeds:
+    summary: dict[str, dict[str, Any]] = {}
+    for seed_set, set_seeds in seed_sets(seeds, held_out).items():
+        set_scenes = [
+            {"seed_set": seed_set, **perturbed_scene(name, seed, work_dir, plan=seed == set_seeds[0])}
+            for name in gt_presets
+            for seed in set_seeds
+        ]
+        set_registration = []
+        for name in registration_presets if have_registration else ():
+            for seed in set_seeds:
                 try:
-                    registration.append(registration_scene(seed, work_dir, name))
+                    set_registration.append({"seed_set": seed_set, **registration_scene(seed, work_dir, name)})
                 except Exception as exc:  # a pipeline failure is reported, not hidden
                     not_run[f"registration_{name}_seed{seed}"] = f"{type(exc).__name__}: {exc}"
-    else:
-        not_run["registration_start"] = "rescene_core.registration / rescene_core.assets not importable"
-    for name in registration_presets:
-        rows = [r for r in registration if r["preset"] == name]
-        for shapes, field in zip(REGISTRATION_SHAPES, ("graphs", "exact_shapes"), strict=True):
-            for graph_name in REGISTRATION_GRAPHS:
-                if rows:
-                    summary[registration_key(name, graph_name, shapes)] = {
-                        stage: {
-                            k: _mean([r[field][graph_name][stage][k] for r in rows])
-                            for k in (*METRICS, "pose_err_mean")
-                        }
-                        for stage in STAGES
-                    }
-        if rows:
-            summary[registration_key(name, "fused")]["physics"] = physics_summary(rows)
+        summary[seed_set] = {
+            "seeds": set_seeds,
+            **summarise(set_scenes, set_registration, gt_presets, registration_presets),
+        }
+        scenes += set_scenes
+        registration += set_registration
     return {
         "summary": summary,
         "registration_scenes": registration,
@@ -625,29 +652,78 @@ def _mean(values):
     return float(np.mean(vals)) if vals else None
 
 
+SET_NOTES = {"development": "development decisions are made on these", "held_out": "reported as they come"}
+
+
 def table(result: dict[str, Any]) -> str:
+    """One block per seed set (development, then held out: never pooled), each with its seeds in the
+    heading; in a block one table of stages per start, and the physics line under the registration start's."""
     lines = []
-    for name, stages in result["summary"].items():
-        if name.startswith("registration"):
-            shapes = "ground-truth meshes registered" if "_exact_shapes" in name else "generated assets"
-            what = f"registration start, {shapes}, {'ground-truth' if name.endswith('_gt_graph') else 'fused'} graph"
-        else:
-            what = "gt-perturbed start, gt graph"
-        lines.append(f"{name} ({what}, mean over seeds {result.get('seeds')})")
-        lines.append("stage      " + " ".join(f"{k[:13]:>13}" for k in METRICS))
-        for stage in STAGES:
-            row = stages[stage]
-            cells = " ".join(f"{'-' if row[k] is None else format(row[k], '.4f'):>13}" for k in METRICS)
-            lines.append(f"{stage:<10} {cells}")
-        if (p := stages.get("physics")) and p["stable_fraction"] is not None:
-            pen = "-" if p["penetration_t0_max"] is None else f"{p['penetration_t0_max'] * 1000:.1f} mm"
-            lines.append(
-                f"physics (full stage, 2 s): stable {p['stable_fraction']:.3f} of {p['free']} free objects "
-                f"(per scene {p['per_scene']}), t=0 penetration max {pen}, fell {p['fell_through']}, "
-                f"escaped {p['escaped']}, {p['seconds_per_scene']} s per scene"
-            )
+    if "held_out" not in result["summary"]:
+        lines.append("no held-out seeds (--held-out)")
+    for seed_set, block in result["summary"].items():
+        seeds = format_seeds(block["seeds"])
+        lines.append(f"== {seed_set} seeds {seeds} ({SET_NOTES[seed_set]})")
+        for name, stages in block.items():
+            if name == "seeds":
+                continue
+            lines += _stage_table(name, stages, seed_set, seeds)
+    lines += _full_stage_by_seed_set(result["summary"])
     s = result["scaling"]
     lines.append(f"scaling: 20 objects {s['20']:.3f} s, 80 objects {s['80']:.3f} s, ratio {s['ratio_80_over_20']:.2f}")
     for key, why in result["not_run"].items():
         lines.append(f"{key}: {why}")
     return "\n".join(lines)
+
+
+OVERVIEW = (
+    "oob_rate",
+    "collision_rate",
+    "floor_contact_pass",
+    "wall_contact_pass",
+    "support_contact_pass",
+    "pose_err_median",
+)
+"""The full stage's figures the seed sets are set side by side on, with the physics check's stable fraction."""
+
+
+def _full_stage_by_seed_set(summary: dict[str, Any]) -> list[str]:
+    """The full stage of every start, one row per seed set under each other (rows, never a pooled mean)."""
+    names = [n for block in summary.values() for n in block if n != "seeds"]
+    lines = [
+        "full stage by seed set",
+        f"{'start':<36} {'seeds':<11} " + " ".join(f"{k[:13]:>13}" for k in OVERVIEW) + f" {'stable 2 s':>10}",
+    ]
+    for name in dict.fromkeys(names):
+        for seed_set, block in summary.items():
+            if name not in block:
+                continue
+            row = block[name]["full"]
+            cells = " ".join(f"{'-' if row.get(k) is None else format(row[k], '.4f'):>13}" for k in OVERVIEW)
+            stable = (block[name].get("physics") or {}).get("stable_fraction")
+            lines.append(f"{name:<36} {seed_set:<11} {cells} {'-' if stable is None else format(stable, '.3f'):>10}")
+    return lines
+
+
+def _stage_table(name: str, stages: dict[str, Any], seed_set: str, seeds: str) -> list[str]:
+    if name.startswith("registration"):
+        shapes = "ground-truth meshes registered" if "_exact_shapes" in name else "generated assets"
+        what = f"registration start, {shapes}, {'ground-truth' if name.endswith('_gt_graph') else 'fused'} graph"
+    else:
+        what = "gt-perturbed start, gt graph"
+    lines = [
+        f"{name} ({what}, mean over {seed_set} seeds {seeds})",
+        "stage      " + " ".join(f"{k[:13]:>13}" for k in METRICS),
+    ]
+    for stage in STAGES:
+        row = stages[stage]
+        cells = " ".join(f"{'-' if row[k] is None else format(row[k], '.4f'):>13}" for k in METRICS)
+        lines.append(f"{stage:<10} {cells}")
+    if (p := stages.get("physics")) and p["stable_fraction"] is not None:
+        pen = "-" if p["penetration_t0_max"] is None else f"{p['penetration_t0_max'] * 1000:.1f} mm"
+        lines.append(
+            f"physics (full stage, 2 s): stable {p['stable_fraction']:.3f} of {p['free']} free objects "
+            f"(per scene {p['per_scene']}), t=0 penetration max {pen}, fell {p['fell_through']}, "
+            f"escaped {p['escaped']}, {p['seconds_per_scene']} s per scene"
+        )
+    return lines

@@ -22,7 +22,12 @@ def test_scaling_and_table_render():
     s = scaling(repeats=1)
     assert s["20"] > 0 and s["80"] > 0
     result = {
-        "summary": {"x": {st: {k: 0.0 for k in METRICS} for st in ("none", "relations", "repair", "full")}},
+        "summary": {
+            "development": {
+                "seeds": [0],
+                "x": {st: {k: 0.0 for k in METRICS} for st in ("none", "relations", "repair", "full")},
+            }
+        },
         "scaling": s,
         "not_run": {"fused_graph": "why"},
         "seeds": [0],

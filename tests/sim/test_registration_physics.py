@@ -56,7 +56,7 @@ def test_summary_pools_free_objects_and_the_table_shows_it():
     assert s["penetration_t0_max"] == 0.02 and s["seconds_per_scene"] == pytest.approx(5.0)
     stages = {st: {k: 0.0 for k in METRICS} for st in STAGES}
     result = {
-        "summary": {"registration": {**stages, "physics": s}},
+        "summary": {"development": {"seeds": [0, 1], "registration": {**stages, "physics": s}}},
         "scaling": {"20": 0.1, "80": 0.4, "ratio_80_over_20": 4.0},
         "not_run": {},
         "seeds": [0, 1],
