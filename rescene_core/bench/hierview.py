@@ -28,6 +28,7 @@ import trimesh
 
 from rescene_core.capture import open_capture
 from rescene_core.capture.ground_truth import read_ground_truth, read_object_id_frames
+from rescene_core.capture.synth import write_synth
 from rescene_core.config import HierViewConfig, KeyFrameConfig
 from rescene_core.hierview import frame_stats, select_keyframes, select_views
 from rescene_core.hierview.projection import project_to_pixels
@@ -176,7 +177,6 @@ def _mean(values: list) -> float | None:
 
 def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
     """Generate (or reuse) one synthetic capture per seed and measure every method on it."""
-    from rescene_core.capture.synth import write_synth
 
     work_dir = Path(work_dir)
     work_dir.mkdir(parents=True, exist_ok=True)

@@ -20,7 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from rescene_core.capture import open_capture
 from rescene_core.capture.importers import ImportOptions, import_capture
+from rescene_core.capture.importers.layouts import Y_UP_FROM_Z_UP, write_nerfstudio, write_panoptic, write_scannet
+from rescene_core.capture.synth import make_scene
+from rescene_core.segment import segment_geometric
+from rescene_core.segment.evaluate import instance_scores, synth_object_sizes
 
 REAL_SAMPLE = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "hololens-000"
 """The real RGB-D recording (shared/data), relative to the repository."""
@@ -37,8 +42,6 @@ def _angle(a, b) -> float:
 
 
 def _round_trip(scene, work: Path) -> dict[str, Any]:
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.importers.layouts import write_nerfstudio, write_panoptic, write_scannet
 
     a = scene.arrays
     out: dict[str, Any] = {}
@@ -76,8 +79,6 @@ def _round_trip(scene, work: Path) -> dict[str, Any]:
 
 
 def _gravity(scene, work: Path) -> dict[str, Any]:
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.importers.layouts import Y_UP_FROM_Z_UP, write_panoptic
 
     a = scene.arrays
     src = write_panoptic(a, work / "src_yup", source_from_world=Y_UP_FROM_Z_UP)
@@ -95,8 +96,6 @@ def _gravity(scene, work: Path) -> dict[str, Any]:
 
 
 def _segmentation(scene) -> dict[str, Any]:
-    from rescene_core.segment import segment_geometric
-    from rescene_core.segment.evaluate import instance_scores, synth_object_sizes
 
     a = scene.arrays
     t = time.perf_counter()
@@ -120,7 +119,6 @@ def _segmentation(scene) -> dict[str, Any]:
 
 
 def _real_sample(work: Path) -> dict[str, Any]:
-    from rescene_core.capture import open_capture
 
     if not (REAL_SAMPLE / "poses.txt").is_file():
         return {"skipped": f"no real sample at {REAL_SAMPLE.resolve()}"}
@@ -142,7 +140,6 @@ def _real_sample(work: Path) -> dict[str, Any]:
 
 
 def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
-    from rescene_core.capture.synth import make_scene
 
     work_dir = Path(work_dir)
     work_dir.mkdir(parents=True, exist_ok=True)

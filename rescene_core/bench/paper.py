@@ -26,11 +26,23 @@ from pathlib import Path
 from typing import Any, Literal, TypedDict
 
 import numpy as np
+import trimesh
 
-from rescene_core.bench.runs import pipeline_run
+from rescene_core.assembly import AssemblyObject, attach
+from rescene_core.bench.runs import pipeline_run, synth_ground_truth
+from rescene_core.bench.scenegraph import anchor_resolved, single_frame_graph
+from rescene_core.capture import open_capture
+from rescene_core.capture.synth import write_synth
+from rescene_core.config import AttachmentConfig, SceneGraphConfig
 from rescene_core.evaluation.geometry import GeometryConfig, compare, sample_meshes
 from rescene_core.evaluation.rendering import RenderingConfig, rendering_metrics
+from rescene_core.evaluation.scene import load_scene, placed_meshes
+from rescene_core.evaluation.structural import structural_metrics
+from rescene_core.export import ExportConfig, shell_meshes
+from rescene_core.io import read_json, write_bytes_atomic
 from rescene_core.paths import RunPaths
+from rescene_core.records import Edge, InstanceId, SceneGraph
+from rescene_core.scenegraph import FramePrediction, fuse_with_report
 
 RENDER_STRIDE = 4
 """Rendering metrics of the bench use every n-th non-key frame."""
@@ -135,7 +147,6 @@ PAPER: PaperNumbers = {
 
 def _run(capture: Path, run_dir: Path, method: str | None) -> float | None:
     """`rescene run` (reused when the run has a scene); returns its wall minutes from the manifest."""
-    from rescene_core.io import read_json
 
     paths = RunPaths(run_dir)
     settings = [f"hierview.method={method}"] if method else []
@@ -149,7 +160,6 @@ def _run(capture: Path, run_dir: Path, method: str | None) -> float | None:
 
 
 def _placed(objects: dict, poses: dict) -> dict[int, tuple[str, Any]]:
-    import trimesh
 
     out = {}
     for i, o in objects.items():
@@ -159,10 +169,6 @@ def _placed(objects: dict, poses: dict) -> dict[int, tuple[str, Any]]:
 
 
 def _row(placed, graph, shell, shell_meshes, capture, gt, gt_samples, key_frames, render: bool) -> dict[str, Any]:
-    from rescene_core.assembly import AssemblyObject
-    from rescene_core.bench.scenegraph import anchor_resolved
-    from rescene_core.evaluation.structural import structural_metrics
-    from rescene_core.records import InstanceId
 
     cfg = GeometryConfig()
     geo = compare(sample_meshes({i: m for i, (_, m) in placed.items()}, cfg), gt_samples, cfg)
@@ -190,17 +196,6 @@ def _row(placed, graph, shell, shell_meshes, capture, gt, gt_samples, key_frames
 
 
 def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
-    from rescene_core.assembly import AssemblyObject, attach
-    from rescene_core.bench.runs import synth_ground_truth
-    from rescene_core.bench.scenegraph import single_frame_graph
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.synth import write_synth
-    from rescene_core.config import AttachmentConfig, SceneGraphConfig
-    from rescene_core.evaluation.scene import load_scene, placed_meshes
-    from rescene_core.export import ExportConfig, shell_meshes
-    from rescene_core.io import read_json
-    from rescene_core.records import Edge, InstanceId, SceneGraph
-    from rescene_core.scenegraph import FramePrediction, fuse_with_report
 
     capture_path = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
     if not capture_path.exists():
@@ -300,7 +295,6 @@ def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
     keys = sorted({k for r in per_seed for row in r["rows"].values() for k in row})
     summary = {n: {k: _mean([r["rows"][n] for r in per_seed], k) for k in keys} for n in names}
     md = tables(summary, seeds, preset)
-    from rescene_core.io import write_bytes_atomic
 
     # the suite runner writes DIR/paper.json; the markdown tables go beside it (work_dir is DIR/paper_work)
     write_bytes_atomic(work_dir.parent / "paper.md", md.encode())

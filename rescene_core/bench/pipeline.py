@@ -25,8 +25,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from rescene_core.capture.synth import write_synth
 from rescene_core.paths import RunPaths
 from rescene_core.pipeline import run_pipeline
+from rescene_core.runlog import read_messages
 
 AIMS = {"overhead_ratio": 1.20, "cached_fraction": 0.05, "seconds_cold": 120.0}
 
@@ -52,7 +54,6 @@ class Harness(Protocol):
 
 
 def _capture(work_dir: Path, preset: str, seed: int) -> Path:
-    from rescene_core.capture.synth import write_synth
 
     path = work_dir / f"{preset}_seed{seed}.zarr"
     if not path.exists():
@@ -65,7 +66,6 @@ def flow_stage_seconds(run_dir: Path) -> tuple[dict[str, float], dict[str, float
 
     Tasks of one stage run concurrently in the thread pool, so the summed time counts contention; the
     span is the stage's wall-clock share of the run."""
-    from rescene_core.runlog import read_messages
 
     seconds: dict[str, float] = defaultdict(float)
     first: dict[str, int] = {}

@@ -23,6 +23,7 @@ worker single-threaded (OMP_NUM_THREADS=1) so the per-instance seconds are singl
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -30,6 +31,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from rescene_core.assets import generate_asset, load_asset, save_asset, unit_box_normalisation
+from rescene_core.bench.runs import synth_ground_truth
+from rescene_core.capture import open_capture
+from rescene_core.capture.synth import write_synth
+from rescene_core.config import AssetConfig, HierViewConfig, RegistrationConfig
+from rescene_core.geometry import sim3
+from rescene_core.geometry.open3d_rng import seeded_open3d_rng
+from rescene_core.hierview import select_views
+from rescene_core.records import Asset, InstanceId, Missing
+from rescene_core.registration import add_s, register
+from rescene_core.registration.init import Normalisation, _prepare
+from rescene_core.registration.pipeline import prepare_target
 
 SUCCESS_ADD_S = 0.10
 """Success: ADD-S below this fraction of the object's diameter."""
@@ -45,9 +61,6 @@ AIMS = {"success_rate": 0.95, "add_s_median": 0.03, "scale_err_median": 0.02, "s
 
 def hidden_sim3(rng: np.random.Generator):
     """object -> hidden source frame: any yaw, tilt <= MAX_TILT_DEG, log-uniform scale in SCALE_RANGE."""
-    from scipy.spatial.transform import Rotation
-
-    from rescene_core.geometry import sim3
 
     axis = np.array([*rng.normal(size=2), 0.0])
     axis /= np.linalg.norm(axis)
@@ -59,9 +72,6 @@ def hidden_sim3(rng: np.random.Generator):
 
 def gt_asset(obj, instance: int, rng: np.random.Generator):
     """(Asset in a unit box, asset_from_object) of a GtObject under a hidden Sim(3)."""
-    from rescene_core.assets import unit_box_normalisation
-    from rescene_core.geometry import sim3
-    from rescene_core.records import Asset, InstanceId
 
     hidden = hidden_sim3(rng)
     moved = sim3.apply(hidden, obj.vertices)
@@ -79,17 +89,11 @@ def gt_asset(obj, instance: int, rng: np.random.Generator):
 def baseline_register(asset, target, config) -> tuple[np.ndarray | None, str]:
     """Open3D FPFH + RANSAC + ICP with scaling and no bounds, on the same extent-normalised clouds."""
     import open3d as o3d
-    import trimesh
-
-    from rescene_core.geometry import sim3
-    from rescene_core.geometry.open3d_rng import seeded_open3d_rng
-    from rescene_core.registration.init import Normalisation, _prepare
 
     reg = o3d.pipelines.registration
     source = trimesh.sample.sample_surface(
         trimesh.Trimesh(asset.vertices, asset.faces, process=False), config.source_samples, seed=config.seed
     )[0]
-    from rescene_core.registration.pipeline import prepare_target
 
     # the same target cleaning as ours, so the comparison isolates the bounds and gates
     points = prepare_target(np.asarray(target.points, np.float64), config)
@@ -130,10 +134,6 @@ def baseline_register(asset, target, config) -> tuple[np.ndarray | None, str]:
 
 
 def _gt_metrics(asset, world_from_asset_true, world_from_asset_est, diameter: float) -> dict[str, float]:
-    import trimesh
-
-    from rescene_core.geometry import sim3
-    from rescene_core.registration import add_s
 
     pts = trimesh.sample.sample_surface(
         trimesh.Trimesh(asset.vertices, asset.faces, process=False), MODEL_POINTS, seed=1
@@ -149,10 +149,6 @@ def _lift_metrics(asset, world_from_asset_est, obj, diameter: float) -> dict[str
     """Surface distance (closest-point distance between the true surface and the posed asset, averaged over
     both directions, fraction of the diameter) in the ``add_s`` field, and the size error
     |diag(posed asset) / diag(true) - 1|."""
-    import trimesh
-
-    from rescene_core.geometry import sim3
-    from rescene_core.registration import add_s
 
     posed = trimesh.Trimesh(sim3.apply(world_from_asset_est, asset.vertices), asset.faces, process=False)
     truth = trimesh.Trimesh(obj.world_vertices(), obj.faces, process=False)
@@ -166,14 +162,6 @@ def _lift_metrics(asset, world_from_asset_est, obj, diameter: float) -> dict[str
 def _job(job: dict[str, Any]) -> list[dict[str, Any]]:
     """Register one instance with both methods; returns one row per method."""
     import open3d as o3d
-
-    from rescene_core.assets import load_asset
-    from rescene_core.bench.runs import synth_ground_truth
-    from rescene_core.capture import open_capture
-    from rescene_core.config import RegistrationConfig
-    from rescene_core.geometry import sim3
-    from rescene_core.records import Missing
-    from rescene_core.registration import register
 
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
     config = RegistrationConfig()
@@ -242,12 +230,6 @@ def _summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Write the capture, choose views, generate lift assets; returns the jobs and notes of this seed."""
-    from rescene_core.assets import generate_asset, save_asset
-    from rescene_core.bench.runs import synth_ground_truth
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.synth import write_synth
-    from rescene_core.config import AssetConfig
-    from rescene_core.records import Missing
 
     path = work_dir / f"{preset}_{seed}.zarr"
     if not path.exists():
@@ -272,8 +254,6 @@ def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str
                 "rng_seed": seed * 100003 + obj.object_id,
             }
         )
-    from rescene_core.config import HierViewConfig
-    from rescene_core.hierview import select_views
 
     views = select_views(cap, HierViewConfig(), instance_ids=sorted(primary))
     notes["hierview"] = "ok"
@@ -304,7 +284,6 @@ def _prepare_seed(seed: int, preset: str, work_dir: Path) -> tuple[list[dict[str
 
 
 def run(seeds: list[int], preset: str, work_dir: Path) -> dict[str, Any]:
-    import multiprocessing
 
     work_dir = Path(work_dir)
     work_dir.mkdir(parents=True, exist_ok=True)

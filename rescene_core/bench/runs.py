@@ -14,12 +14,12 @@ from pathlib import Path
 
 from rescene_core.capture.format import Capture
 from rescene_core.capture.ground_truth import GroundTruth, read_ground_truth
+from rescene_core.capture.synth import write_synth
 from rescene_core.paths import RunPaths
 
 
 def synth_capture(work_dir: Path, preset: str, seed: int) -> Path:
     """``work_dir/captures/<preset>_seed<seed>.zarr``, written by the synthetic generator when missing."""
-    from rescene_core.capture.synth import write_synth
 
     capture = work_dir / "captures" / f"{preset}_seed{seed}.zarr"
     if not capture.exists():

@@ -29,13 +29,19 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rescene_core.capture import open_capture
+from rescene_core.capture.ground_truth import read_ground_truth
+from rescene_core.capture.synth import write_synth
 from rescene_core.config import KeyFrameConfig, SceneGraphConfig, ShellConfig, VlmClientConfig
+from rescene_core.hierview import select_keyframes
 from rescene_core.records import Root, SceneGraph
 from rescene_core.scenegraph import FramePrediction, fuse_with_report, make_predictor, predict_frames
 from rescene_core.scenegraph.frame import render_overlay
 from rescene_core.scenegraph.loopback import LoopbackServer, Reply, image_url
 from rescene_core.scenegraph.overlay import png_bytes
+from rescene_core.shell import estimate_shell
 
 WALL_MATCH_DEG = 15.0
 """An estimated wall matches a ground-truth wall when their normals differ by at most this (deg) ..."""
@@ -47,7 +53,6 @@ VARIANTS = ("single_frame", "vote", "full")
 
 
 def _capture(work_dir: Path, preset: str, seed: int):
-    from rescene_core.capture.synth import write_synth
 
     path = work_dir / f"{preset}_{seed}.zarr"
     if not path.exists():
@@ -57,15 +62,12 @@ def _capture(work_dir: Path, preset: str, seed: int):
 
 def _shell(capture, gt):
     try:
-        from rescene_core.shell import estimate_shell
-
         return estimate_shell(capture, ShellConfig()), "estimated"
     except Exception as err:  # report and use the ground-truth shell rather than stop the suite
         return gt.shell, f"ground truth ({type(err).__name__}: {err})"
 
 
 def _keyframes(capture) -> tuple[list[int], str]:
-    from rescene_core.hierview import select_keyframes
 
     return list(select_keyframes(capture, KeyFrameConfig()).frames), "greedy 3D coverage"
 
@@ -118,7 +120,6 @@ def match_walls(estimated, truth) -> dict[int, int]:
     """Estimated wall id -> ground-truth wall id, matched by plane geometry (normal within WALL_MATCH_DEG,
     offset within WALL_MATCH_OFFSET, nearest offset first; segments' midpoints break ties). Unmatched
     estimated walls are left out."""
-    import numpy as np
 
     out = {}
     cos_tol = np.cos(np.deg2rad(WALL_MATCH_DEG))
@@ -206,7 +207,6 @@ def _loopback_run(capture, frames, shell, geometric: list[FramePrediction], seed
 
 
 def run_seed(preset: str, seed: int, work_dir: Path) -> dict[str, Any]:
-    from rescene_core.capture.ground_truth import read_ground_truth
 
     t0 = time.perf_counter()
     capture = _capture(work_dir, preset, seed)

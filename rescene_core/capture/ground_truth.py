@@ -23,9 +23,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
 import zarr
 from numpy.typing import NDArray
 
+from rescene_core.capture.format import write_array
 from rescene_core.records import Edge, InstanceId, Relation, RoomShell, Root, SceneGraph
 
 GT_FORMAT = "rescene-gt"
@@ -168,7 +170,6 @@ class GroundTruth:
 
     def world_mesh(self, object_id: int):
         """The object's mesh in the world frame as a ``trimesh.Trimesh`` (metres)."""
-        import trimesh
 
         obj = self.object(object_id)
         return trimesh.Trimesh(obj.world_vertices(), np.asarray(obj.faces, dtype=np.int64), process=False)
@@ -179,7 +180,6 @@ def write_ground_truth(group: zarr.Group, gt: GroundTruth, object_id_frames: NDA
 
     object_id_frames: optional int32 [T, H, W], the error-free object id per pixel (0 = none).
     """
-    from rescene_core.capture.format import write_array
 
     g = group.create_group("gt")
     vert_counts = [len(o.vertices) for o in gt.objects]

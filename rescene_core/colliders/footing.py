@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from shapely.geometry import MultiPoint, Point
 
 from rescene_core.colliders.pieces import Piece, Placement, centre_of_mass, hull_piece, inside_piece
 
@@ -35,7 +36,6 @@ FOOTING_MIN_BAND = 0.01
 
 def _support_margin(points_xy: NDArray, centre_xy: NDArray) -> float:
     """Signed distance (m) of ``centre_xy`` inside the convex hull of ``points_xy`` (negative: outside)."""
-    from shapely.geometry import MultiPoint, Point
 
     hull = MultiPoint(points_xy).convex_hull
     if hull.geom_type != "Polygon":

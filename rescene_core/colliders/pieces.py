@@ -12,6 +12,8 @@ from typing import Protocol
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
+from shapely.geometry import MultiPoint
+from shapely.geometry.polygon import orient
 
 from rescene_core.geometry.completion import hull_mesh
 from rescene_core.geometry.sim3 import scale_of
@@ -118,8 +120,6 @@ def slice_piece(piece: Piece, normal: NDArray, origin: NDArray) -> Piece | None:
 def footprint_ring(points_xy: NDArray, grow: float) -> NDArray[np.float64]:
     """Counter-clockwise corners [4, 2] of the smallest rotated rectangle around ``points_xy``, grown by
     ``grow`` (m) on every side."""
-    from shapely.geometry import MultiPoint
-    from shapely.geometry.polygon import orient
 
     rect = MultiPoint(np.asarray(points_xy, np.float64)).minimum_rotated_rectangle
     rect = rect.buffer(max(grow, 1e-4), join_style="mitre")

@@ -9,8 +9,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import shapely
 import trimesh
 from numpy.typing import NDArray
+from shapely.geometry import MultiPoint, Polygon
 
 from rescene_core.colliders.pieces import (
     BOARD_THICKNESS,
@@ -51,8 +53,6 @@ def mesh_overlap(samples: NDArray, mesh: trimesh.Trimesh | None, ring: NDArray, 
     """How high (m) a parent's mesh rises above ``z_lo`` inside a child's prism (``ring`` [k, 2], up to
     ``z_hi``, its sides moved in by ``SEAT_INSET``): the highest of its surface ``samples`` there, the whole
     height when the (closed) ``mesh`` contains the prism's centre; 0 when the mesh is not there."""
-    import shapely
-    from shapely.geometry import Polygon
 
     inner = Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
     rise = 0.0
@@ -94,7 +94,6 @@ def seat_children(
     ``supports``: the parent's support-plane boards, (world height m, world xy of the board's corners [k, 2]);
     ``hollow``: its pieces are a shell (``hollow_shell``); ``others``: world points [n, 3] of the geometry of
     neighbours (not its children), which a board under a child's foot must not reach into."""
-    from shapely.geometry import MultiPoint, Polygon
 
     boards_xy = [(h, MultiPoint(np.asarray(xy, np.float64)).convex_hull.buffer(1e-3)) for h, xy in supports]
     entries, boards = [], []

@@ -33,8 +33,10 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
+import shapely
 import trimesh
 from numpy.typing import NDArray
+from shapely.geometry import Polygon
 
 from rescene_core.colliders.pieces import (
     CARVE_MARGIN,
@@ -184,8 +186,6 @@ def carve_where_other_is(piece: Piece, other_inside: NDArray, own: NDArray) -> l
     """The parts of the world ``piece`` left after carving the vertical prism around the neighbour's geometry
     inside it (``other_inside`` [n, 3]; see the module doc), or None when the prism holds some of the piece's
     own object's mesh (``own`` [m, 3], its surface points) or the carve removes nothing."""
-    import shapely
-    from shapely.geometry import Polygon
 
     if len(other_inside) < 3:
         return None

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import trimesh
+from shapely.geometry import Polygon
 
 from rescene_core.config import ExportConfig
 from rescene_core.geometry.room import floor_height, wall_boxes
@@ -13,7 +14,6 @@ from rescene_core.records import RoomShell
 def shell_meshes(shell: RoomShell, config: ExportConfig) -> dict[str, trimesh.Trimesh]:
     """Floor slab (the floor polygon extruded downwards) and one box per wall segment (trimmed to the room's
     outline, ``wall_extent``), world frame."""
-    from shapely.geometry import Polygon
 
     out: dict[str, trimesh.Trimesh] = {}
     z0 = floor_height(shell)

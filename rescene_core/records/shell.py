@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from shapely.geometry import Polygon
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,6 @@ class RoomShell:
 
     def polygon(self):
         """The floor polygon as a shapely Polygon."""
-        from shapely.geometry import Polygon
 
         return Polygon(self.floor_polygon)
 

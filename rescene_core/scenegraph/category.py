@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from rescene_core.io import write_json_atomic
 from rescene_core.records import Relation, Root, SceneGraph
 
 PRIOR_FORMAT = "rescene-relation-prior"
@@ -114,6 +115,5 @@ def refit_prior(
 
 
 def save_prior(path: str | Path, prior: CategoryPrior) -> Path:
-    from rescene_core.io import write_json_atomic
 
     return write_json_atomic(path, prior.to_json())

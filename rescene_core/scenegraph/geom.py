@@ -6,8 +6,10 @@ All points are world-frame metres, float64 [n, 3]; heights are signed distances 
 from __future__ import annotations
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
+from shapely.geometry import MultiPoint
 
 from rescene_core.capture import Capture
 from rescene_core.records import Plane, RoomShell, WallPlane
@@ -38,7 +40,6 @@ edges bleed onto the wall behind and onto far surfaces, so the extremes are not 
 def floor_only_shell(capture: Capture) -> RoomShell:
     """A stand-in shell when none is given: a horizontal floor at the 1st percentile of all point
     heights, the convex hull of all points as the floor polygon, and no walls."""
-    from shapely.geometry import MultiPoint
 
     pts, _ = capture.all_points()
     if not len(pts):
@@ -97,8 +98,6 @@ def holds_from_below(
     on the same surface starts at the child's bottom and either rises above it or lies beside the child's
     centre, not under it (a tray beside a cup; the island does not rest on the tray on it). Whether it has an
     upward face at the child's bottom within ``support_gap`` is tested separately."""
-    import shapely
-    from shapely.geometry import MultiPoint
 
     if parent_bottom < child_bottom - tol:
         return True

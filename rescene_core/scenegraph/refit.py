@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rescene_core.capture import open_capture
+from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import SceneGraph
@@ -26,8 +28,6 @@ def graphs_from(path: str | Path) -> tuple[SceneGraph, dict[int, str]]:
         if "edges" not in data or "nodes" not in data:
             raise ValueError(f"{path}: not a scene-graph file (needs 'edges' and 'nodes')")
         return SceneGraph.from_json(data), {int(k): str(v) for k, v in data["nodes"].items()}
-    from rescene_core.capture import open_capture
-    from rescene_core.capture.ground_truth import read_ground_truth
 
     capture = open_capture(path)
     gt = read_ground_truth(capture)

@@ -8,6 +8,7 @@ aligns, segments, fuses and writes the capture.
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -16,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
 from pydantic import BaseModel, ConfigDict
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
@@ -176,7 +178,6 @@ def match_stems(primary: list[Path], other: list[Path], primary_dir: Path, other
 
 def read_rgb(path: Path) -> NDArray[np.uint8]:
     """An RGB image [H, W, 3] uint8; raises ImportInputError naming the file when unreadable."""
-    from PIL import Image
 
     try:
         with Image.open(path) as im:
@@ -187,7 +188,6 @@ def read_rgb(path: Path) -> NDArray[np.uint8]:
 
 def read_png_int(path: Path) -> NDArray:
     """A single-channel integer PNG (depth in units, instance or label ids) as an integer array [H, W]."""
-    from PIL import Image
 
     try:
         with Image.open(path) as im:
@@ -337,8 +337,6 @@ def read_source_gravity(src: Path) -> tuple[NDArray[np.float64], str] | None:
         return _up_from_gravity(g, path), str(path)
     path = src / ARIA_TRAJECTORY
     if path.is_file():
-        import csv
-
         cols = ("gravity_x_world", "gravity_y_world", "gravity_z_world")
         try:
             with path.open(newline="") as f:
@@ -495,7 +493,6 @@ def scale_intrinsics(K: NDArray, w0: int, h0: int, w1: int, h1: int) -> NDArray[
 
 def resize(img: NDArray, w: int, h: int, nearest: bool) -> NDArray:
     """Resize an image [H, W] or [H, W, C] to w x h (nearest for depth and ids, bilinear for colour)."""
-    from PIL import Image
 
     if nearest:
         ys = np.minimum(((np.arange(h) + 0.5) * img.shape[0] / h).astype(np.int64), img.shape[0] - 1)

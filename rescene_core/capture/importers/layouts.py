@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import trimesh
 from numpy.typing import NDArray
 from PIL import Image
 
@@ -153,7 +154,6 @@ def write_scannet_mesh_annotation(scene, dest: str | Path, name: str = "scene000
     """ScanNet's 3D annotation of a synthetic scene: ``<name>_vh_clean_2.ply`` (the objects' meshes and a
     floor), ``<name>.aggregation.json`` and ``<name>_vh_clean_2.0.010000.segs.json``. One segment per
     object; objectId = instance id - 1. Returns {ground-truth object id: instance id}."""
-    import trimesh
 
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
 from rescene_core.capture.importers.common import (
     ImportInputError,
@@ -32,6 +33,7 @@ from rescene_core.capture.importers.common import (
     scale_intrinsics,
     select_frames,
 )
+from rescene_core.capture.importers.writer import finish_import
 
 DISTORTION_KEYS = ("k1", "k2", "k3", "k4", "p1", "p2")
 
@@ -98,7 +100,6 @@ def read_nerfstudio(src: str | Path, opts: ImportOptions, mask_dir: Path | None 
         by = {p.stem: p for p in masks}
         mask_files = [by[rgb_files[k].stem] for k in keep]
     # intrinsics are for the image size (w, h) of transforms.json; images stored at another size scale them
-    from PIL import Image
 
     K_list = []
     for k in keep:
@@ -132,7 +133,6 @@ def import_nerfstudio(
     src: str | Path, out: str | Path, opts: ImportOptions | None = None, **configs: Any
 ) -> dict[str, Any]:
     """Import a nerfstudio folder into a capture at ``out``; returns the import report."""
-    from rescene_core.capture.importers.writer import finish_import
 
     opts = opts or ImportOptions()
     started = time.perf_counter()

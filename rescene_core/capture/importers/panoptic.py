@@ -17,6 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from rescene_core.capture.importers.common import ImportInputError, ImportOptions, require_dir, require_file
+from rescene_core.capture.importers.nerfstudio import read_nerfstudio
+from rescene_core.capture.importers.rgbd import read_rgbd
+from rescene_core.capture.importers.scannet import read_scannet
+from rescene_core.capture.importers.writer import finish_import, labels_from_json
 
 
 def detect_base(src: Path) -> str:
@@ -43,7 +47,6 @@ def import_panoptic(
     **configs: Any,
 ) -> dict[str, Any]:
     """Import frames plus per-frame instance PNGs and labels into a capture at ``out``; returns the report."""
-    from rescene_core.capture.importers.writer import finish_import, labels_from_json
 
     opts = opts or ImportOptions()
     started = time.perf_counter()
@@ -59,16 +62,10 @@ def import_panoptic(
         raise ImportInputError(f"{labels_file}: not valid JSON ({err})") from err
     base = base or detect_base(src)
     if base == "rgbd":
-        from rescene_core.capture.importers.rgbd import read_rgbd
-
         frames = read_rgbd(src, opts, mask_dir=mask_dir)
     elif base == "nerfstudio":
-        from rescene_core.capture.importers.nerfstudio import read_nerfstudio
-
         frames = read_nerfstudio(src, opts, mask_dir=mask_dir)
     elif base == "scannet":
-        from rescene_core.capture.importers.scannet import read_scannet
-
         frames = read_scannet(src, opts, mask_dir=mask_dir)
     else:
         raise ImportInputError(f"unknown base layout {base!r}; use rgbd, scannet or nerfstudio")

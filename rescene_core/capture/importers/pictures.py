@@ -13,6 +13,7 @@ from PIL import Image, ImageDraw
 
 from rescene_core.capture.format import Capture
 from rescene_core.capture.synth.pictures import instance_colors, overlay, picture_paths
+from rescene_core.capture.validate import open_capture
 
 
 def contact_sheet(capture: Capture, frames: int = 12, columns: int = 4, tile_width: int = 320) -> Image.Image:
@@ -91,7 +92,6 @@ def plan_figure(capture: Capture, path: Path) -> None:
 
 def write_pictures(capture_path: str | Path) -> dict[str, Path]:
     """Write the contact sheet (segments over frames) and the plan next to the capture; their paths."""
-    from rescene_core.capture.validate import open_capture
 
     capture = open_capture(capture_path, validate=False)
     paths = picture_paths(capture_path)

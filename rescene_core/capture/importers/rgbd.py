@@ -31,6 +31,7 @@ from rescene_core.capture.importers.common import (
     require_file,
     select_frames,
 )
+from rescene_core.capture.importers.writer import finish_import
 
 
 def read_rgbd(src: str | Path, opts: ImportOptions, mask_dir: Path | None = None) -> SourceFrames:
@@ -90,7 +91,6 @@ def read_rgbd(src: str | Path, opts: ImportOptions, mask_dir: Path | None = None
 
 def import_rgbd(src: str | Path, out: str | Path, opts: ImportOptions | None = None, **configs: Any) -> dict[str, Any]:
     """Import an RGB-D folder into a capture at ``out``; returns the import report."""
-    from rescene_core.capture.importers.writer import finish_import
 
     opts = opts or ImportOptions()
     started = time.perf_counter()

@@ -27,6 +27,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import trimesh
+from PIL import Image
 
 from rescene_core.capture.importers.common import (
     ImportInputError,
@@ -41,8 +43,12 @@ from rescene_core.capture.importers.common import (
     read_png_int,
     require_dir,
     require_file,
+    resize,
     select_frames,
 )
+from rescene_core.capture.importers.writer import finish_import
+from rescene_core.render.raycast import RayCaster
+from rescene_core.segment.project import labelled_meshes, render_masks
 
 LABEL_MAP_NAME = "scannetv2-labels.combined.tsv"
 
@@ -139,8 +145,6 @@ def read_scannet(src: str | Path, opts: ImportOptions, mask_dir: Path | None = N
         notes.append(f"instance masks rendered from the 3D annotation ({ply.name}) with a depth test")
 
         def render(frames: SourceFrames) -> None:
-            from rescene_core.render.raycast import RayCaster
-            from rescene_core.segment.project import labelled_meshes, render_masks
 
             fl = vlabel[faces]
             face_label = np.where((fl[:, 0] == fl[:, 1]) | (fl[:, 0] == fl[:, 2]), fl[:, 0], fl[:, 1])
@@ -148,8 +152,6 @@ def read_scannet(src: str | Path, opts: ImportOptions, mask_dir: Path | None = N
             h, w = frames.rgb.shape[1:3]
             frames.masks, stats = render_masks(caster, frames.K, frames.world_from_cam, w, h, frames.depth)
             frames.notes.append(f"3D annotation render: {stats['rejected_by_depth']} pixels rejected by the depth test")
-
-    from PIL import Image
 
     probe = by_depth[rgb_files[keep[0]].stem] if opts.resolution == "depth" else rgb_files[keep[0]]
     try:
@@ -190,7 +192,6 @@ def _labels_2d(
     frames: SourceFrames, label_files: list[Path], src: Path, opts: ImportOptions
 ) -> dict[int, tuple[str, bool]]:
     """Each instance's label: the most frequent label-filt id under its pixels, named by the label map."""
-    from rescene_core.capture.importers.common import resize
 
     tsv = src / LABEL_MAP_NAME
     names = read_label_map(tsv) if tsv.is_file() else {}
@@ -224,7 +225,6 @@ def read_mesh_annotation(
     ply: Path, agg: Path, segs: Path
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[int, tuple[str, bool]]]:
     """Vertices [v, 3], faces [f, 3], instance id per vertex (objectId + 1, 0 = none) and labels."""
-    import trimesh
 
     try:
         mesh = trimesh.load(ply, process=False, force="mesh")
@@ -255,7 +255,6 @@ def import_scannet(
     src: str | Path, out: str | Path, opts: ImportOptions | None = None, **configs: Any
 ) -> dict[str, Any]:
     """Import a ScanNet export into a capture at ``out``; returns the import report."""
-    from rescene_core.capture.importers.writer import finish_import
 
     opts = opts or ImportOptions()
     started = time.perf_counter()

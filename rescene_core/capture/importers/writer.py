@@ -33,6 +33,7 @@ from rescene_core.capture.importers.common import (
 from rescene_core.capture.validate import check_capture
 from rescene_core.io import atomic_directory, write_json_atomic
 from rescene_core.records import Instance, InstanceId
+from rescene_core.segment import SegmentError, segment_geometric
 
 
 def report_path(out: str | Path) -> Path:
@@ -113,8 +114,6 @@ def finish_import(
     if frames.render_masks is not None and opts.segment != "geometric":
         frames.render_masks(frames)
     if opts.segment == "geometric":
-        from rescene_core.segment import SegmentError, segment_geometric
-
         try:
             seg = segment_geometric(
                 frames.rgb, frames.depth, frames.K, world_from_cam, segment_config, opts.clip_model,

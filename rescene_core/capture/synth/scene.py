@@ -28,6 +28,7 @@ from rescene_core.capture.synth.panoptic import (
     drift,
     plan_panoptic_errors,
 )
+from rescene_core.capture.synth.pictures import write_pictures
 from rescene_core.capture.synth.presets import SynthPreset, get_preset
 from rescene_core.records import Camera, Instance, InstanceId
 from rescene_core.render import Light, Renderer, RenderMesh, Shading, Texture
@@ -408,8 +409,6 @@ def write_scene(
     scene.timings["write"] = time.perf_counter() - t
     out = {"capture": path}
     if pictures:
-        from rescene_core.capture.synth.pictures import write_pictures
-
         t = time.perf_counter()
         out.update(write_pictures(path, scene))
         scene.timings["pictures"] = time.perf_counter() - t
