@@ -114,3 +114,39 @@ def test_a_generator_that_made_the_body_gets_no_base_and_the_same_block():
     completed = np.vstack([objects[InstanceId(1)].world_vertices(pose), apply(pose, base.points_asset)])
     np.testing.assert_allclose(completed.min(axis=0), solid.min(axis=0), atol=0.02)
     np.testing.assert_allclose(completed.max(axis=0), solid.max(axis=0), atol=0.02)
+
+
+def test_the_lift_backends_slab_of_an_island_seen_from_above_is_completed_to_a_block(tmp_path):
+    # the weight-free backend, given a view straight down onto the worktop, makes the slab it saw; attachment
+    # completes it down to the floor, and the block stands in MuJoCo
+    pytest.importorskip("mujoco")
+    pytest.importorskip("pxr")
+    from rescene_core.assets import finish_asset
+    from rescene_core.assets.lift import LiftBackend, lift_points
+    from rescene_core.config import AssetConfig
+    from rescene_core.geometry import sim3
+    from rescene_core.sim import simcheck_run
+    from tests.assets.test_assets import look_at_camera, render_view
+
+    island = trimesh.creation.box((1.8, 0.95, TOP), trimesh.transformations.translation_matrix([2.0, 2.5, TOP / 2]))
+    view = render_view(island, look_at_camera(np.array([2.0, 2.45, TOP + 1.6]), np.array([2.0, 2.5, TOP])))
+    config = AssetConfig()
+    asset = finish_asset(InstanceId(1), "lift", LiftBackend(config).generate(view))
+    world_from_asset = sim3.compose(
+        np.asarray(asset.metadata["world_from_generator"]), sim3.inverse(asset.asset_from_generator)
+    )
+    points = lift_points(view, config.lift.mask_erosion)
+    assert np.ptp(points[:, 2]) < 0.01  # the view saw the worktop only
+    slab = AssemblyObject(InstanceId(1), "kitchen island", asset.vertices, asset.faces, world_from_asset)
+    slab = replace(slab, exact_shape=False, points=points)
+    assert slab.world_vertices()[:, 2].min() > TOP - 0.1  # the backend made a slab, not the body
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 0.95),))
+    layout = attach({InstanceId(1): slab}, graph, rect_room(), AttachmentConfig())
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    assert "seen only from above" in base.source
+    world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
+    assert abs(world[:, 2].min()) < 1e-6 and world[:, 2].max() > TOP - 0.02
+    assert MultiPoint(world[:, :2]).convex_hull.area > 0.9 * 1.8 * 0.95
+    export_scene(tmp_path / "scene", placed_objects([slab], layout), rect_room(), graph, [], ExportConfig())
+    result = simcheck_run(tmp_path)
+    assert result.summary.free == 1 and result.summary.stable == 1
