@@ -150,3 +150,16 @@ def test_the_lift_backends_slab_of_an_island_seen_from_above_is_completed_to_a_b
     export_scene(tmp_path / "scene", placed_objects([slab], layout), rect_room(), graph, [], ExportConfig())
     result = simcheck_run(tmp_path)
     assert result.summary.free == 1 and result.summary.stable == 1
+
+
+def test_a_stool_tucked_under_the_overhang_keeps_its_space():
+    objects, graph, shell = _scene()
+    objects[InstanceId(3)] = box_object(3, "bar stool", (0.35, 0.35, 0.65), placed(2.0, 2.9))  # y 2.725-3.075
+    graph = SceneGraph((*graph.edges, Edge(InstanceId(3), Relation.RESTS_ON, Root.FLOOR, 0.95)))
+    layout = attach(objects, graph, shell, AttachmentConfig())
+    np.testing.assert_allclose(layout.world_from_asset[InstanceId(3)], objects[InstanceId(3)].world_from_asset)
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    assert "seen only from above" in base.source
+    world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
+    assert 2.70 < world[:, 1].max() <= 2.725 - 0.004  # cut back short of the stool, the rest of the block kept
+    assert world[:, 1].min() < 2.06
