@@ -93,9 +93,10 @@ def digest(value: Any) -> Any:
     raise TypeError(f"task input of type {type(value).__name__} cannot be part of a cache key; pass a reference")
 
 
-UNKEYED_INPUTS = frozenset({"run_dir", "request_slot"})
-"""Task inputs that say where a run lives or how it reaches a shared service, not what it computes: left
-out of cache keys, so a run directory that moved (or is mounted elsewhere) keeps its cache."""
+UNKEYED_INPUTS = frozenset({"run_dir", "request_slot", "wall_height", "wall_thickness"})
+"""Task inputs that say where a run lives, how it reaches a shared service or how its run log draws the
+walls, not what it computes: left out of cache keys, so a run directory that moved (or is mounted
+elsewhere) keeps its cache, and a wall box's size re-runs the export, not attachment."""
 
 
 @dataclass

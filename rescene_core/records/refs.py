@@ -23,7 +23,8 @@ class Ref:
 
     kind: what the file holds ("shell", "view", "asset", "pose", "graph", "layout", "scene", ...).
     path: the file, relative to the run directory (absolute for the capture, which lives outside it).
-    sha256: content hash of that file (of the whole Zarr store for the capture).
+    sha256: content hash of that file (of the whole Zarr store for the capture, of every file under scene/ for
+      the export's reference to scene.json).
     item: the instance id or key-frame index, None for scene-level outputs.
     status: OK, or MISSING when the stage recorded ``missing`` instead of an output.
     numbers: a few plain JSON numbers for tables and logs (faces, frame, rmse, ...).

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
+
 from rescene_core.capture import open_capture
 from rescene_core.export import ExportConfig, export_scene, placed_objects
 from rescene_core.io import read_json
@@ -40,4 +44,12 @@ def run(
             extra={"scene_id": cap.scene_id, "capture": capture.path, "capture_sha256": capture.sha256},
         )
         seg.log("/metrics", {"stage": Stage.EXPORT, "metrics": {"objects": len(objects), "files": len(hashes)}})
-        return make_ref(run_dir, run.scene_json, "scene", numbers={"objects": len(objects)}, detail={"files": hashes})
+        ref = make_ref(run_dir, run.scene_json, "scene", numbers={"objects": len(objects)}, detail={"files": hashes})
+        # the reference stands for the whole scene/ directory: an MJCF or USD that changed while scene.json did
+        # not (a collider setting) must re-run the physics check and the evaluation that read them
+        return dataclasses.replace(ref, sha256=scene_digest(hashes))
+
+
+def scene_digest(hashes: dict[str, str]) -> str:
+    """sha256 over every exported file's path and sha256 (``export_scene``'s return value)."""
+    return hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()

@@ -63,6 +63,21 @@ def test_flow_writes_run_directory_and_caches(prefect_server, fake_stages, box_c
     assert scene["objects"][0]["scale"] == pytest.approx(0.6 * 1.2, rel=0.05)
 
 
+def test_a_changed_mjcf_reruns_the_physics_check(prefect_server, fake_stages, box_capture_path, tmp_path):
+    """The wall boxes' thickness changes the MJCF and the GLB, not scene.json: the physics check and the
+    evaluation that read those files run again (the export's reference covers every file under scene/)."""
+    run = tmp_path / "run"
+    assert _run(box_capture_path, run).is_completed()
+    mjcf = (run / "scene/mjcf/scene.xml").read_bytes()
+    scene_json = (run / "scene/scene.json").read_bytes()
+    config = RunConfig().with_overrides(["export.wall_thickness=0.12"])
+    assert _run(box_capture_path, run, config).is_completed()
+    assert (run / "scene/scene.json").read_bytes() == scene_json and (run / "scene/mjcf/scene.xml").read_bytes() != mjcf
+    stages = json.loads((run / "manifest.json").read_text())["stages"]
+    assert stages["export"] == {"completed": 1} and stages["attachment"] == {"cached": 1}
+    assert stages["simcheck"] == {"completed": 1} and stages["evaluation"] == {"completed": 1}
+
+
 def test_run_log_has_every_channel(prefect_server, fake_stages, box_capture_path, tmp_path):
     run = tmp_path / "run"
     assert _run(box_capture_path, run).is_completed()
