@@ -61,6 +61,7 @@ its parent carves its seat.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -164,7 +165,7 @@ def _depth(instance: int, parent: dict[int, int]) -> int:
 
 
 def edit_colliders(
-    objects: list[PlacedMesh],
+    objects: Sequence[PlacedMesh],
     pieces: dict[str, list[Piece]],
     hollow: dict[str, tuple[list[Piece], dict[str, Any]]],
     graph: SceneGraph | None,
@@ -265,7 +266,7 @@ def edit_colliders(
 
     for obj in objects:
         name = obj.node_name
-        edge = parents.get(obj.instance)
+        edge = parents.get(InstanceId(obj.instance))
         if kinds.get(name) != "free" or edge is None or edge.relation != Relation.RESTS_ON:
             continue
         load = carried(int(obj.instance), frozenset({int(obj.instance)}))

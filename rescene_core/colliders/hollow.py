@@ -4,6 +4,7 @@ a shell of panels around its bounding box, one side open (see ``rescene_core.col
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -55,7 +56,7 @@ def within_pulled_sides(extra: list[Piece], shell: list[Piece], sides: dict[str,
             normal, origin = np.zeros(3), np.zeros(3)
             normal[a], origin[a] = (-1.0, hi[a]) if side[0] == "+" else (1.0, lo[a])
             cut = slice_piece(cut, normal, origin) if cut is not None else None
-        out.append(cut if is_solid(cut) else piece)  # type: ignore[arg-type]
+        out.append(cut if cut is not None and is_solid(cut) else piece)
     return out
 
 
@@ -196,7 +197,7 @@ def hollow_shell(
 
 
 def find_hollow(
-    objects: list[PlacedMesh], graph: SceneGraph | None, shell: RoomShell | None
+    objects: Sequence[PlacedMesh], graph: SceneGraph | None, shell: RoomShell | None
 ) -> dict[str, tuple[list[Piece], dict[str, Any]]]:
     """Node -> (shell pieces, report entry) of every hollow parent (see ``hollow_shell``)."""
     by_instance = {int(o.instance): o for o in objects}

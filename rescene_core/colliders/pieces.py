@@ -220,7 +220,7 @@ def inside_piece(points: NDArray, piece: Piece, tolerance: float = -NEIGHBOUR_CL
     """Which ``points`` [n, 3] lie inside the convex ``piece`` (same frame), its faces moved out by
     ``tolerance`` (m; negative: in)."""
     normals, offsets = face_planes(piece)
-    return ((np.asarray(points, np.float64) @ normals.T - offsets) <= tolerance).all(axis=1)
+    return np.asarray(((np.asarray(points, np.float64) @ normals.T - offsets) <= tolerance).all(axis=1), np.bool_)
 
 
 def face_planes(piece: Piece) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -29,7 +29,7 @@ got wrong.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -90,7 +90,7 @@ def _inside(points: NDArray, piece: Piece, tolerance: float) -> NDArray[np.bool_
     return inside_piece(points, piece, tolerance)
 
 
-def overlaps(world_pieces: dict[str, list[Piece]], min_depth: float = MIN_DEPTH) -> list[dict[str, Any]]:
+def overlaps(world_pieces: Mapping[str, Sequence[Piece | None]], min_depth: float = MIN_DEPTH) -> list[dict[str, Any]]:
     """Pairs of pieces of different objects overlapping by more than ``min_depth`` (MuJoCo's narrow phase on
     the pieces as convex meshes): ``{"a", "ka", "b", "kb", "depth", "normal" (from a's piece to b's),
     "point"}``, the deepest contact of each pair."""
@@ -99,15 +99,18 @@ def overlaps(world_pieces: dict[str, list[Piece]], min_depth: float = MIN_DEPTH)
     spec = mujoco.MjSpec()
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     names: dict[str, tuple[str, int]] = {}
-    for b, (node, pieces) in enumerate(world_pieces.items()):
-        body = spec.worldbody.add_body(name=f"b{b}", mass=1.0, inertia=[1.0, 1.0, 1.0])
+    for bi, (node, pieces) in enumerate(world_pieces.items()):
+        body = spec.worldbody.add_body(name=f"b{bi}", mass=1.0, inertia=[1.0, 1.0, 1.0])
         body.add_freejoint()
-        for k, (v, f) in enumerate(pieces):
-            mesh = spec.add_mesh(name=f"m{b}_{k}")
+        for k, piece in enumerate(pieces):
+            if piece is None:  # a piece that gave way entirely (its index kept for the others)
+                continue
+            v, f = piece
+            mesh = spec.add_mesh(name=f"m{bi}_{k}")
             mesh.uservert = np.asarray(v, np.float64).ravel().tolist()
             mesh.userface = np.asarray(f, np.int64).ravel().tolist()
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-            geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"m{b}_{k}", name=f"g{b}_{k}")
+            geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"m{bi}_{k}", name=f"g{bi}_{k}")
             names[geom.name] = (node, k)
     if not names:
         return []
@@ -119,12 +122,13 @@ def overlaps(world_pieces: dict[str, list[Piece]], min_depth: float = MIN_DEPTH)
         depth = -float(c.dist)
         if depth <= min_depth:
             continue
-        (a, ka), (b, kb) = names[model.geom(c.geom1).name], names[model.geom(c.geom2).name]
-        if a == b:
+        first, second = names[model.geom(c.geom1).name], names[model.geom(c.geom2).name]
+        if first[0] == second[0]:
             continue
         normal = np.asarray(c.frame[:3], np.float64).copy()
-        if (b, kb) < (a, ka):
-            (a, ka), (b, kb), normal = (b, kb), (a, ka), -normal
+        if second < first:
+            first, second, normal = second, first, -normal
+        (a, ka), (b, kb) = first, second
         key = (a, ka, b, kb)
         if key not in deepest or depth > deepest[key]["depth"]:
             deepest[key] = {"a": a, "ka": ka, "b": b, "kb": kb, "depth": depth, "normal": normal, "point": c.pos.copy()}
@@ -167,10 +171,10 @@ def _depth_in_mesh(points: NDArray, mesh: trimesh.Trimesh) -> float:
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(
-        o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32))
-    )
-    signed = scene.compute_signed_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
+    # Open3D's stubs take no numpy array in o3d.core.Tensor (the bindings do)
+    vertices = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))  # type: ignore[call-overload]
+    scene.add_triangles(vertices, o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))  # type: ignore[call-overload]
+    signed = scene.compute_signed_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()  # type: ignore[call-overload]
     return max(0.0, float(-signed.min()))
 
 
@@ -224,10 +228,12 @@ def subtract(piece: Piece, other: Piece) -> list[Piece]:
     rest: Piece | None = piece
     for normal, offset in zip(normals, offsets, strict=True):
         origin = normal * offset
-        beyond = slice_piece(rest, normal, origin)  # type: ignore[arg-type]
-        if is_solid(beyond):
+        if rest is None:
+            break
+        beyond = slice_piece(rest, normal, origin)
+        if beyond is not None and is_solid(beyond):
             parts.append(beyond)
-        rest = slice_piece(rest, -normal, origin)  # type: ignore[arg-type]
+        rest = slice_piece(rest, -normal, origin)
         if rest is None:
             break
     return parts
@@ -272,7 +278,7 @@ def separate(
     (``evidence_points``); ``related``: pairs of nodes one of which rests on the other (left to the seats);
     ``completions``: node -> body-frame pieces of its completions (for the report's overlap depths).
     Returns node -> report entries."""
-    world = {n: [(places[n].world(v), f) for v, f in ps] for n, ps in pieces.items()}
+    world: dict[str, list[Piece | None]] = {n: [(places[n].world(v), f) for v, f in ps] for n, ps in pieces.items()}
     entries: dict[str, dict[str, dict[str, Any]]] = {n: {} for n in pieces}
     for _ in range(PASSES):
         found = [o for o in overlaps(world) if frozenset((o["a"], o["b"])) not in related]
@@ -330,7 +336,7 @@ def separate(
         if not cut_any:
             break
     for n in pieces:
-        pieces[n] = [(places[n].body(v), f) for v, f in world[n]]
+        pieces[n] = [(places[n].body(p[0]), p[1]) for p in world[n] if p is not None]
     out: dict[str, list[dict[str, Any]]] = {}
     depths: dict[frozenset[str], tuple[float, float]] = {}
     for n, by_other in entries.items():
