@@ -235,6 +235,6 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     record_completions(final)
     return Layout(
         world_from_asset={i: final.pose(i) for i in valid},
-        operations=tuple(op.to_json() for op in final.operations),
+        operations=tuple(final.operations),
         missing=tuple(missing),
     )

@@ -20,7 +20,7 @@ from rescene_core.records.ids import (
     parent_from_json,
     parent_to_json,
 )
-from rescene_core.records.layout import Completion, CompletionKind, Layout, completion_of_operation
+from rescene_core.records.layout import Completion, CompletionKind, Layout, Operation, completion_of_operation
 from rescene_core.records.missing import Missing
 from rescene_core.records.objects import Asset, Pose, ViewChoice
 from rescene_core.records.refs import Ref, RefStatus
@@ -37,6 +37,7 @@ __all__ = [
     "InstancePoints",
     "Layout",
     "Missing",
+    "Operation",
     "Parent",
     "Plane",
     "Pose",

@@ -49,7 +49,7 @@ def run(
         layout = calls.attach(objects, scene_graph, shell_rec, config) if objects else Layout({})
         write_json_atomic(run.layout, layout.to_json())
         for op in layout.operations:
-            seg.log("/assembly/operations", {"instance": op.get("instance"), "rule": op.get("rule"), "operation": op})
+            seg.log("/assembly/operations", {"instance": op.instance, "rule": op.rule, "operation": op.to_json()})
         final = [
             SceneObject(
                 o.instance,

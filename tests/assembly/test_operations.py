@@ -30,6 +30,6 @@ def test_layout_operations_read_back_as_records():
     layout = attach(objects, graph, shell, AttachmentConfig())
     ops = operations_of(json.loads(json.dumps(layout.to_json()))["operations"])
     assert ops and all(isinstance(o, Operation) for o in ops)
-    assert [o.to_json() for o in ops] == list(layout.operations)
+    assert ops == layout.operations and [o.to_json() for o in ops] == [o.to_json() for o in layout.operations]
     moves = [o for o in ops if "transform" in o.details]
     assert moves and all(np.asarray(o.details["transform"]).shape == (4, 4) for o in moves)

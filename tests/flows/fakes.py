@@ -26,6 +26,7 @@ from rescene_core.records import (
     InstanceId,
     Layout,
     Missing,
+    Operation,
     Plane,
     Pose,
     Relation,
@@ -204,7 +205,7 @@ def attach(objects, graph, shell, config):
         lowest = (obj.vertices @ m[:3, :3].T + m[:3, 3])[:, 2].min()
         m[2, 3] -= lowest
         poses[i] = m
-        ops.append({"instance": int(i), "rule": "floor-snap", "dz": float(-lowest)})
+        ops.append(Operation(int(i), "all", "floor snap", "floor-snap", {"dz": float(-lowest)}))
     return Layout(poses, tuple(ops))
 
 

@@ -7,7 +7,7 @@ import trimesh
 
 from rescene_core.geometry.completion import completed_mesh, completion_solid, completion_surface
 from rescene_core.geometry.sim3 import apply, sim3_from_parts
-from rescene_core.records import Completion, CompletionKind, InstanceId, Layout
+from rescene_core.records import Completion, CompletionKind, InstanceId, Layout, Operation
 
 SQUARE = np.array([[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]], np.float64)
 
@@ -15,9 +15,9 @@ SQUARE = np.array([[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]], np.float
 def test_layout_reads_support_planes_and_bases_from_its_operations():
     cube = np.array([[x, y, z] for x in (0, 0.2) for y in (0, 0.2) for z in (0, 0.3)])
     ops = (
-        {"instance": 3, "rule": "support plane", "polygon_asset": SQUARE.tolist(), "source": "points"},
-        {"instance": 3, "rule": "floor snap"},
-        {"instance": 5, "rule": "base", "points_asset": cube.tolist(), "source": "legs seen"},
+        Operation(3, "all", "object support", "support plane", {"polygon_asset": SQUARE, "source": "points"}),
+        Operation(3, "all", "floor snap", "floor snap"),
+        Operation(5, "all", "completions", "base", {"points_asset": cube, "source": "legs seen"}),
     )
     layout = Layout.from_json(Layout({}, ops).to_json())
     got = layout.completions()
@@ -60,5 +60,5 @@ def test_a_cut_keeps_the_side_its_normal_points_to_and_stays_closed():
     assert kept.is_watertight
     np.testing.assert_allclose(kept.volume, 0.7, rtol=1e-9)
     np.testing.assert_allclose(v[:, 2].min(), -0.2, atol=1e-12)
-    ops = ({"instance": 1, "rule": "cut", "points_asset": cut.points_asset.tolist(), "source": "wall"},)
+    ops = (Operation(1, "all", "completions", "cut", {"points_asset": cut.points_asset, "source": "wall"}),)
     assert Layout({}, ops).completions()[InstanceId(1)][0].kind is CompletionKind.CUT
