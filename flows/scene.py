@@ -31,6 +31,7 @@ from rescene_core.config import RunConfig
 from rescene_core.manifest import InstanceRow, StageRow, final_message, instance_row, now_iso
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Ref, Stage
+from rescene_core.runlock import hold_run_directory
 from rescene_core.runlog import Segment
 from rescene_core.stages.execution import capture_ref
 from rescene_core.stages.keyframes import keyframes_of
@@ -89,14 +90,24 @@ def rescene(
         st = inner(capture, run_dir, config, verify_capture, runner, address, return_state=True)
         data = st.result(raise_on_failure=False)
         return (Completed if st.is_completed() else Failed)(message=st.message, data=data)
-    config = config or RunConfig()
-    walls = (config.export.wall_height, config.export.wall_thickness)  # how the run log draws the walls
-    logger = get_run_logger()
     run = RunPaths(Path(run_dir).resolve())
     run.root.mkdir(parents=True, exist_ok=True)
-    started = now_iso()
     flow_ctx = FlowRunContext.get()
     flow_run_id = str(flow_ctx.flow_run.id) if flow_ctx and flow_ctx.flow_run else "local"
+    # one run per run directory, held before any stage and released however the run ends; a retry of
+    # this flow run (same id) or a run whose process died takes the lock over (rescene_core/runlock.py)
+    holder_id = flow_run_id if flow_run_id != "local" else None  # "local" is no flow run to match
+    with hold_run_directory(run.root, flow_run_id=holder_id, logger=get_run_logger()):
+        return _run_scene(capture, run, config or RunConfig(), verify_capture, flow_run_id)
+
+
+def _run_scene(
+    capture: str, run: RunPaths, config: RunConfig, verify_capture: str, flow_run_id: str
+) -> State[dict[str, Any]]:
+    """The flow's work on a run directory it holds: every stage, the manifest, the final state."""
+    walls = (config.export.wall_height, config.export.wall_thickness)  # how the run log draws the walls
+    logger = get_run_logger()
+    started = now_iso()
     write_run_config(run, config)
     flow_log = Segment(run.root, "flow")
     flow_log.log("/flow/events", {"event": "start", "flow_run_id": flow_run_id, "details": {"capture": capture}})

@@ -21,6 +21,7 @@ LAYOUT = "layout.json"
 FAULTS = "faults.json"
 FAULT_COUNTS = ".faults/"
 RESULTS = ".prefect/results/"
+LOCK = ".lock"
 
 # per instance
 INSTANCES = "instances/"
@@ -137,6 +138,11 @@ class RunPaths:
     @property
     def results(self) -> Path:
         return self._at(RESULTS)
+
+    @property
+    def lock(self) -> Path:
+        """The run lock: present while a run holds the directory (rescene_core/runlock.py)."""
+        return self._at(LOCK)
 
     # per instance
     @property

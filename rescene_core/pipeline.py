@@ -24,6 +24,7 @@ from rescene_core.config import RunConfig
 from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Layout, Missing, Pose, Ref, RoomShell, SceneGraph, Stage
+from rescene_core.runlock import hold_run_directory
 from rescene_core.runlog import merge_segments
 from rescene_core.stages.dag import DAG, StageSpec
 from rescene_core.stages.execution import capture_ref
@@ -82,9 +83,13 @@ def run_pipeline(
     if out_dir is None:
         with tempfile.TemporaryDirectory(prefix="rescene-pipeline-") as tmp:
             return run_pipeline(capture_path, config, tmp)
-    config = config or RunConfig()
     run = RunPaths(Path(out_dir).resolve())
     run.root.mkdir(parents=True, exist_ok=True)
+    with hold_run_directory(run.root):  # one run per run directory, as the flow holds it
+        return _run_stages(capture_path, config or RunConfig(), run)
+
+
+def _run_stages(capture_path: str | Path, config: RunConfig, run: RunPaths) -> PipelineResult:
     capture = capture_ref(capture_path)
     cap = open_capture(capture.path, validate=False)
     values: dict[str, Any] = {

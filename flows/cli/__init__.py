@@ -84,7 +84,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import time
 
     from rescene_core.capture import CaptureError
+    from rescene_core.capture.identity import CaptureChangedError
     from rescene_core.config import load_config
+    from rescene_core.runlock import RunDirectoryBusy
 
     config = load_config(args.config, args.set)
     if args.runner == "dask" and not args.address:
@@ -96,7 +98,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     state = run_flow(args.capture, args.out, config, args.runner, args.address, verify_capture=args.verify_capture)
     seconds = time.perf_counter() - start
     summary = state.result(raise_on_failure=False) if state.is_completed() or state.is_failed() else None
-    if isinstance(summary, CaptureError):  # bad input: the problems, and exit code 2 as for every command
+    # refused before any work: a bad capture (its problems), a capture changed since its stamp (the files),
+    # a run directory held by another run (the holder); exit code 2 as for every command's bad input
+    if isinstance(summary, (CaptureError, CaptureChangedError, RunDirectoryBusy)):
         print(str(summary), file=sys.stderr)
         return 2
     print(f"{state.name}: {state.message or ''} ({seconds:.1f} s)")

@@ -63,3 +63,26 @@ def test_pipeline_suite_needs_the_harness_the_command_line_gives_it(tmp_path):
 
     with pytest.raises(ValueError, match="rescene bench pipeline"):
         pipeline.run([0], "tiny", tmp_path)
+
+
+def test_run_refused_on_a_changed_capture_or_a_busy_directory_exits_2(
+    prefect_server, fake_stages, box_capture_path, tmp_path, capsys
+):
+    import shutil
+
+    import zarr
+
+    from rescene_core.runlock import hold_run_directory
+
+    run = tmp_path / "run"
+    run.mkdir()
+    with hold_run_directory(run, flow_run_id="flow-run-elsewhere"):
+        assert main(["run", str(box_capture_path), "--out", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert "is in use by another run" in err and "flow run flow-run-elsewhere" in err
+    changed = shutil.copytree(box_capture_path, tmp_path / "changed.zarr")
+    rgb = zarr.open_group(str(changed), mode="r+")["frames/rgb"]
+    rgb[1] = 255 - rgb[1]
+    assert main(["run", str(changed), "--out", str(run)]) == 2
+    assert "the capture changed since it was written (files changed: frames/rgb/c/1/0/0/0)" in capsys.readouterr().err
+    assert sum(fake_stages.values()) == 0, dict(fake_stages)
