@@ -29,8 +29,11 @@ def parse_seeds(text: str) -> list[int]:
 
 def _cmd_validate(args: argparse.Namespace) -> int:
     from rescene_core.capture import check_capture, open_capture
+    from rescene_core.capture.validate import check_identity
 
-    problems = check_capture(args.capture)
+    problems = check_capture(args.capture)  # every chunk of every array decoded, then the content checked
+    if not any(p.where == str(args.capture) for p in problems):  # a store that opens: its files against the stamp
+        problems += check_identity(args.capture, full=args.full)
     errors = [p for p in problems if p.severity == "error"]
     for p in problems:
         print(str(p), file=sys.stderr if p.severity == "error" else sys.stdout)
@@ -196,6 +199,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="check a capture and print its summary")
     p.add_argument("capture", type=Path)
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument(
+        "--full",
+        action="store_true",
+        help="rehash every file against the capture's identity stamp (default: sizes, and files modified since)",
+    )
     p.set_defaults(func=_cmd_validate)
 
     p = sub.add_parser("run", help="run the rescene flow on a capture")

@@ -154,3 +154,49 @@ def test_random_corruption_loads_or_raises_capture_error(pristine, tmp_path_fact
         assert str(path) in str(err)
     else:
         cap.summary()
+
+
+def _overwrite_with_garbage(chunk):
+    """Bytes that no longer decode, of the chunk's own size (as a disk or copy fault leaves them)."""
+    chunk.write_bytes(np.random.default_rng(0).bytes(chunk.stat().st_size))
+
+
+def test_undecodable_chunks_named_by_array_and_frame(tmp_path, capsys):
+    path = write_capture(tmp_path / "c.zarr", toy_capture_arrays(frames=3))
+    assert errors(path) == []
+    _overwrite_with_garbage(path / "frames/rgb/c/1/0/0/0")
+    _overwrite_with_garbage(path / "frames/instance/c/2/0/0")
+    _overwrite_with_garbage(path / "instances/points/c/0/0")
+    found = {p.where: p.message for p in errors(path)}
+    assert set(found) == {"frames/rgb", "frames/instance", "instances/points"}, found
+    assert found["frames/rgb"].startswith("frame 1 cannot be decoded") and "frames/rgb/c/1/0/0/0" in found["frames/rgb"]
+    assert found["frames/instance"].startswith("frame 2 cannot be decoded")
+    n = zarr.open_group(str(path), mode="r")["instances/points"].shape[0]
+    assert found["instances/points"].startswith(f"rows 0-{n - 1} cannot be decoded")
+    with pytest.raises(CaptureError, match="frame 1 cannot be decoded"):
+        open_capture(path)
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "frames/rgb: frame 1 cannot be decoded" in err and "frames/instance: frame 2 cannot be decoded" in err
+
+
+def test_changed_bytes_that_still_decode_are_found_against_the_stamp(tmp_path, capsys):
+    """Four bytes flipped inside a chunk, its size and modification time unchanged (as a silent disk fault
+    leaves it): the chunk still decodes, to other pixels; the cheap stamp check trusts the time, rehashing
+    every file (--full) finds it."""
+    import os
+
+    path = write_capture(tmp_path / "c.zarr", toy_capture_arrays())
+    chunk = path / "frames/rgb/c/0/0/0/0"
+    before = chunk.stat()
+    data = bytearray(chunk.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 4] = bytes(b ^ 0xFF for b in data[middle : middle + 4])
+    chunk.write_bytes(bytes(data))
+    os.utime(chunk, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert errors(path) == []  # it decodes: only the stamp can tell
+    assert main(["validate", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(path), "--full"]) == 2
+    err = capsys.readouterr().err
+    assert "attrs.identity: the capture changed since it was written (files changed: frames/rgb/c/0/0/0/0)" in err

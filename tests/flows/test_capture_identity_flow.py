@@ -8,6 +8,7 @@ import shutil
 
 import pytest
 
+from rescene_core.capture import CaptureError
 from rescene_core.capture.identity import CaptureChangedError
 from rescene_core.config import RunConfig
 from rescene_core.records import Ref, Stage
@@ -81,3 +82,26 @@ def test_flow_fails_on_capture_changed_in_place(prefect_server, fake_stages, box
     assert state.is_failed()
     assert "CaptureChangedError" in state.message and "the capture changed since it was written" in state.message
     assert fake_stages.get("shell", 0) == 0
+
+
+def test_flow_fails_on_a_chunk_that_no_longer_decodes(prefect_server, fake_stages, box_capture_path, tmp_path):
+    """Garbage in a chunk with its size and modification time unchanged passes the cheap stamp check;
+    the validation stage decodes every chunk and fails the run before any stage, naming array and frame."""
+    import os
+
+    from flows.scene import run_flow
+
+    copy = shutil.copytree(box_capture_path, tmp_path / "copy.zarr")
+    chunk = copy / "frames/rgb/c/1/0/0/0"
+    before = chunk.stat()
+    chunk.write_bytes(os.urandom(before.st_size))
+    os.utime(chunk, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert capture_ref(copy).sha256 == capture_ref(box_capture_path).sha256  # the cheap check cannot tell
+    state = run_flow(copy, tmp_path / "run", RunConfig())
+    assert state.is_failed()
+    assert "CaptureError" in state.message and "frames/rgb: frame 1 cannot be decoded" in state.message
+    assert fake_stages.get("shell", 0) == 0
+    # rehashing every file (--verify-capture full) finds the change before any task, and the capture's
+    # problems are the clearer error
+    with pytest.raises(CaptureError, match="frames/rgb: frame 1 cannot be decoded"):
+        capture_ref(copy, "full")
