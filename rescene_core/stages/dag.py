@@ -130,9 +130,14 @@ def roots(stage: Stage) -> tuple[str, ...]:
     return (spec.run.__module__, *spec.library)
 
 
+def code_version(stage: Stage | str) -> str:
+    """Hash of the import closure of the stage's body and library packages (``version.source_hash``),
+    computed once per process and stage (``Stage.VIEW`` and ``"view"`` are one entry)."""
+    return _code_version(Stage(stage))
+
+
 @cache
-def code_version(stage: Stage) -> str:
-    """Hash of the import closure of the stage's body and library packages (``version.source_hash``)."""
+def _code_version(stage: Stage) -> str:
     return source_hash(roots(stage))
 
 
