@@ -118,7 +118,8 @@ def _boot_id() -> str | None:
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this host (signal 0: nothing is sent)."""
+    """Whether a process ``pid`` runs on this host (signal 0: nothing is sent). A zombie (killed, not yet
+    reaped by its parent, e.g. in a container whose first process reaps nothing) does not run."""
     if pid <= 0:
         return False
     try:
@@ -126,8 +127,11 @@ def pid_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:  # it exists, owned by another user
+        pass
+    try:  # Linux: the state follows the parenthesised command name in /proc/<pid>/stat
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
         return True
-    return True
 
 
 def stale_after_s() -> float:

@@ -75,6 +75,21 @@ def test_second_process_refused(tmp_path):
     assert f"pid {os.getpid()}" in out.stdout and "in use by another run" in out.stdout
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="process states are read from /proc (Linux)")
+def test_a_killed_process_not_yet_reaped_is_not_alive():
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        assert runlock.pid_alive(child.pid)
+        child.kill()
+        deadline = time.monotonic() + 10
+        while Path(f"/proc/{child.pid}/stat").exists() and " Z " not in Path(f"/proc/{child.pid}/stat").read_text():
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert not runlock.pid_alive(child.pid)  # a zombie until waited for
+    finally:
+        child.wait()
+
+
 def test_stale_lock_of_dead_process_taken_over_and_logged(tmp_path, caplog):
     dead = _dead_pid()
     _write_lock(tmp_path, pid=dead, flow_run_id="crashed")
