@@ -11,6 +11,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from rescene_core.config import RunConfig
 from rescene_core.paths import RunPaths
 from rescene_core.runlock import LOCK_FORMAT, read_lock
@@ -92,4 +94,35 @@ def test_lock_released_after_a_failed_run(prefect_server, fake_stages, box_captu
     assert not RunPaths(run).lock.exists()
     again = run_flow(box_capture_path, run, RunConfig())  # the directory is free for the retry
     assert again.is_completed(), again.message
+    assert not RunPaths(run).lock.exists()
+
+
+def test_retried_flow_run_takes_over_its_earlier_attempts_lock(prefect_server, fake_stages, box_capture_path, tmp_path):
+    """`prefect flow-run retry` runs the flow function again under the same flow run id: the lock its
+    earlier attempt left, held by a process still alive, is its own and taken over."""
+    import asyncio
+    from pathlib import Path
+
+    from prefect.cli.flow_run import retry
+
+    from flows.scene import run_flow
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / FAULTS_FILE).write_text(json.dumps([{"stage": "registration", "item": 3, "kind": "bad_input", "times": 1}]))
+    state = run_flow(box_capture_path, run, RunConfig())
+    assert state.is_failed()
+    flow_run_id = str(state.state_details.flow_run_id)
+    earlier = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    try:
+        _foreign_lock(run, earlier.pid, flow_run_id=flow_run_id)
+        entrypoint = f"{Path(__file__).resolve().parents[2] / 'flows' / 'scene.py'}:rescene"
+        with pytest.raises(SystemExit) as exit_info:
+            asyncio.run(retry(flow_run_id, entrypoint=entrypoint))
+        assert exit_info.value.code in (0, None)
+    finally:
+        earlier.kill()
+        earlier.wait()
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["state"] == "Completed" and manifest["flow_run_id"] == flow_run_id
     assert not RunPaths(run).lock.exists()
