@@ -56,6 +56,9 @@ CLAIM_TIMEOUT_S = 30.0
 ACQUIRE_ATTEMPTS = 5
 """How often a takeover is retried when another process changes the lock meanwhile."""
 
+UNREADABLE = "unreadable-"
+"""Token prefix of the holder that stands for a lock file that does not parse."""
+
 _BOOT_ID = Path("/proc/sys/kernel/random/boot_id")
 
 
@@ -179,6 +182,12 @@ def stale_reason(
 
 
 def _busy_message(lock: Path, holder: LockHolder, stale_s: float) -> str:
+    if holder.token.startswith(UNREADABLE):
+        return (
+            f"run directory {lock.parent} holds a lock that cannot be read ({lock}, written {holder.started}): "
+            f"a run may be starting on it. If none is, delete {lock} (it is taken over automatically "
+            f"{stale_s:.0f} s after it was written; set {STALE_ENV} to change that)."
+        )
     same_host = holder.host == socket.gethostname()
     gone = (
         "it is taken over automatically once that process is gone"
@@ -233,6 +242,8 @@ def _remove_stale(lock: Path, stale: LockHolder) -> None:
         try:
             current = read_lock(lock)
         except ValueError:
+            current = _unreadable_holder(lock)  # the same unreadable file keeps its token (its mtime)
+        except FileNotFoundError:
             current = None
         if current is not None and current.token == stale.token:
             lock.unlink(missing_ok=True)
@@ -251,7 +262,7 @@ def _unreadable_holder(lock: Path) -> LockHolder:
         started_s=mtime,
         flow_run_id=None,
         boot_id=None,
-        token=f"unreadable-{mtime}",
+        token=f"{UNREADABLE}{mtime}",
     )
 
 
@@ -310,9 +321,12 @@ def acquire_run_directory(
                 logger.warning("run directory %s: took over the lock of %s", lock.parent, took_over.describe())
             return RunLock(lock, me)
         try:
-            holder = read_lock(lock)
-        except ValueError:
-            holder = _unreadable_holder(lock)
+            try:
+                holder = read_lock(lock)
+            except ValueError:
+                holder = _unreadable_holder(lock)
+        except FileNotFoundError:  # removed between the read and the stat
+            continue
         if holder is None:  # released meanwhile: try again
             continue
         reason = stale_reason(holder, flow_run_id, stale_s)

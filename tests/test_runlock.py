@@ -136,6 +136,16 @@ def test_lock_from_before_a_reboot_is_stale(tmp_path):
         assert held.holder.took_over["boot_id"] == "another-boot"
 
 
+def test_unreadable_lock_refused_until_the_bound(tmp_path):
+    RunPaths(tmp_path).lock.write_text("{not json")
+    with pytest.raises(RunDirectoryBusy, match="holds a lock that cannot be read"):
+        acquire_run_directory(tmp_path)
+    old = time.time() - 7200
+    os.utime(RunPaths(tmp_path).lock, (old, old))
+    with hold_run_directory(tmp_path, stale_s=3600) as held:
+        assert held.holder.took_over["token"].startswith(runlock.UNREADABLE)
+
+
 def test_released_only_by_its_holder(tmp_path):
     held = acquire_run_directory(tmp_path)
     replaced = _write_lock(tmp_path, token="someone-else")  # taken over meanwhile (e.g. judged stale)
