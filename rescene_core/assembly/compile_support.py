@@ -337,7 +337,7 @@ def compile_support(
 ) -> tuple[NDArray[np.float64] | None, dict[str, Any]]:
     """World-frame Sim(3) [4, 4] placing ``child`` on a support face of its parent (None: no face)."""
     cfg, room = state.config, state.room
-    parent = InstanceId(edge.parent)
+    parent = InstanceId(int(edge.parent))
     levels = support_levels(state, parent)
     if not levels:
         return None, {"reason": f"parent {parent} has no upward-facing support face"}
@@ -407,6 +407,7 @@ def compile_support(
         grown = extend_under_child(state, parent, child, level)
         if grown is not None:
             level, board, evidence = grown, grown, "the parent's observed points under the child"
+    shift: NDArray[np.float64] | None
     shift, how = seen_centre_shift(state, child, moved, level.polygon), "registered centre on face"
     if obj.exact_shape:
         seated = footprint(apply(translation([shift[0], shift[1], 0.0]) @ correction @ pose, obj.vertices))

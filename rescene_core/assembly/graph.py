@@ -36,7 +36,7 @@ class Forest:
     def root_of(self, node: InstanceId) -> InstanceId:
         """The topmost object ancestor of ``node`` (itself when its parent is a structural root)."""
         while node in self.edges and not isinstance(self.edges[node].parent, Root):
-            node = InstanceId(self.edges[node].parent)
+            node = InstanceId(int(self.edges[node].parent))
         return node
 
     def related(self, a: InstanceId, b: InstanceId) -> bool:

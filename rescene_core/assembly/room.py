@@ -89,7 +89,7 @@ def _wall(w: WallPlane) -> Wall | None:
         return None
     scale = np.linalg.norm(n)
     tangent = np.array([seg[0], seg[1], 0.0]) / length
-    return Wall(int(w.id), n / scale, float(w.plane.offset) / scale, np.array([x0, y0], float), length, tangent)
+    return Wall(int(w.id), n / scale, float(float(w.plane.offset) / scale), np.array([x0, y0], float), length, tangent)
 
 
 def open_side_region(polygon: Polygon, shell: RoomShell, walls: tuple[Wall, ...]) -> Polygon:
@@ -166,7 +166,7 @@ def room_from_shell(shell: RoomShell) -> Room:
             f"floor polygon edges {list(shell.open_edges())} have no observed wall: containment reaches "
             f"{OPEN_SIDE_REACH} m across them"
         )
-    return Room(shell, up, float(shell.floor.offset) / scale, tuple(walls), region, tuple(notes), polygon)
+    return Room(shell, up, float(float(shell.floor.offset) / scale), tuple(walls), region, tuple(notes), polygon)
 
 
 def fit_translation(footprint: Polygon, region: Polygon, max_segment: float = 0.05) -> NDArray[np.float64] | None:

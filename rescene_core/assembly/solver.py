@@ -48,7 +48,17 @@ from rescene_core.assembly.trim import cut_overlaps, room_cuts, top_cuts, trimme
 from rescene_core.assembly.wall_evidence import turn_to_wall_evidence
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
-from rescene_core.records import CompletionKind, InstanceId, Layout, Missing, Relation, RoomShell, Root, SceneGraph
+from rescene_core.records import (
+    CompletionKind,
+    InstanceId,
+    Layout,
+    Missing,
+    Relation,
+    RoomShell,
+    Root,
+    SceneGraph,
+    Stage,
+)
 
 
 def run_branch(state: LayoutState, world: CollisionWorld, use_walls: bool) -> LayoutState:
@@ -193,7 +203,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         if int(key) != int(obj.instance):
             problems.append(f"dict key {key} differs from the object's instance id {obj.instance}")
         if problems:
-            missing.append(Missing(InstanceId(int(key)), "assembly", "; ".join(problems)))
+            missing.append(Missing(InstanceId(int(key)), Stage.ATTACHMENT, "; ".join(problems)))
         else:
             valid[InstanceId(int(key))] = obj
     valid, turned = turn_to_wall_evidence(valid, graph, room, config)

@@ -7,26 +7,26 @@ left of a pose, ``world_from_asset_new = correction @ world_from_asset``.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from rescene_core.geometry.sim3 import parts_from_sim3
 
 
-def translation(vector: NDArray) -> NDArray[np.float64]:
+def translation(vector: ArrayLike) -> NDArray[np.float64]:
     """Pure translation by ``vector`` [3] (m)."""
     m = np.eye(4)
     m[:3, 3] = np.asarray(vector, dtype=np.float64)
     return m
 
 
-def rotation_about(rotvec: NDArray, pivot: NDArray) -> NDArray[np.float64]:
+def rotation_about(rotvec: ArrayLike, pivot: ArrayLike) -> NDArray[np.float64]:
     """Rotation by the rotation vector ``rotvec`` [3] (radians) about the world point ``pivot`` [3]."""
     rot = Rotation.from_rotvec(np.asarray(rotvec, dtype=np.float64)).as_matrix()
-    pivot = np.asarray(pivot, dtype=np.float64)
+    centre = np.asarray(pivot, dtype=np.float64)
     m = np.eye(4)
     m[:3, :3] = rot
-    m[:3, 3] = pivot - rot @ pivot
+    m[:3, 3] = centre - rot @ centre
     return m
 
 

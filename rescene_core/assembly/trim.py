@@ -301,10 +301,10 @@ def _inside(mesh: trimesh.Trimesh, points: NDArray) -> NDArray[np.bool_]:
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(
-        o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32))
-    )
-    occupancy = scene.compute_occupancy(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
+    # Open3D's stubs take no numpy array in o3d.core.Tensor (the bindings do)
+    vertices = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))  # type: ignore[call-overload]
+    scene.add_triangles(vertices, o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))  # type: ignore[call-overload]
+    occupancy = scene.compute_occupancy(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()  # type: ignore[call-overload]
     return occupancy > 0.5
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import importlib.util
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -42,7 +42,7 @@ from rescene_core.config import AttachmentConfig
 from rescene_core.evaluation.structural import structural_metrics
 from rescene_core.records import Edge, InstanceId, RoomShell, Root, SceneGraph
 
-STAGES = ("none", "relations", "repair", "full")
+STAGES: tuple[Literal["none", "relations", "repair", "full"], ...] = ("none", "relations", "repair", "full")
 PRESETS = ("standard", "cluttered")
 """What ``--preset all`` measures, and the gt-perturbed start of every run."""
 EXTRA_PRESETS = ("egocentric",)
@@ -80,7 +80,9 @@ def ground_truth_layout(preset: str, seed: int):
 
         cfg = get_preset(preset)
         root_rng = np.random.default_rng(seed)
-        rng_layout = np.random.default_rng(root_rng.bit_generator.seed_seq.spawn(6)[0])
+        seed_seq = root_rng.bit_generator.seed_seq
+        assert isinstance(seed_seq, np.random.SeedSequence)  # default_rng(int) seeds with a SeedSequence
+        rng_layout = np.random.default_rng(seed_seq.spawn(6)[0])
         room = random_room(rng_layout, cfg)
         lay = furnish(room, cfg, rng_layout)
         items = [
@@ -234,7 +236,7 @@ def run_stages(
     gt: dict, objects: dict, graph: SceneGraph, shell: RoomShell, poses_out: dict | None = None
 ) -> dict[str, dict[str, Any]]:
     """Metrics of every stage from ``objects``' poses against ``gt``; ``poses_out`` receives each stage's poses."""
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     for stage in STAGES:
         if stage == "none":
             poses, seconds, layout = {i: o.world_from_asset for i, o in objects.items()}, 0.0, None
@@ -489,6 +491,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
     doc = load_scene(run_dir)
     cap = open_capture(capture, validate=False)
     gt = read_ground_truth(cap)
+    assert gt is not None, f"{capture} is a synthetic capture with ground truth"
     shell = doc.scene.shell
     assert shell is not None, "the pipeline's export always records the room shell"
     obj_of = gt.object_of_instance()
@@ -615,7 +618,7 @@ def _registration_stages(
     objects: dict, graph: SceneGraph, shell: RoomShell, gt_centre: dict, poses_out: dict | None = None
 ) -> dict[str, Any]:
     """Metrics of every stage from the registered poses; ``poses_out`` receives each stage's poses."""
-    stages = {}
+    stages: dict[str, Any] = {}
     for stage in STAGES:
         if stage == "none":
             poses, seconds, scene_objects = {i: o.world_from_asset for i, o in objects.items()}, 0.0, objects

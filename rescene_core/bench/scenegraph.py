@@ -192,7 +192,9 @@ def _loopback_run(capture, frames, shell, geometric: list[FramePrediction], seed
         predictor = make_predictor(cfg)
         preds = predict_frames(capture, frames, shell, cfg, predictor)
         graph, report = fuse_with_report(preds, capture, shell, cfg, predictor=predictor)
-        predictor.close()
+        close = getattr(predictor, "close", None)  # the OpenAI-compatible backend holds an HTTP client
+        if close is not None:
+            close()
     statuses = {s: sum(p.status == s for p in preds) for s in ("ok", "partial", "failed", "empty")}
     return {
         "graph": graph,

@@ -117,7 +117,9 @@ def restructure_scene(data: bytes, extras: dict[str, dict[str, Any]], scene_extr
 def object_glb(vertices: np.ndarray, faces: np.ndarray) -> bytes:
     """A GLB of one mesh in its own (asset) frame."""
     mesh = trimesh.Trimesh(np.asarray(vertices), np.asarray(faces), process=False)
-    return mesh.export(file_type="glb")
+    data = mesh.export(file_type="glb")
+    assert isinstance(data, bytes)  # trimesh exports a binary format as bytes
+    return data
 
 
 def scene_glb(scene: trimesh.Scene, extras: dict[str, dict[str, Any]], scene_extras: dict[str, Any]) -> bytes:

@@ -104,6 +104,7 @@ def body_kind(
 def _stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     data = trimesh.Trimesh(vertices, faces, process=False).export(file_type="stl")
+    assert isinstance(data, bytes)  # trimesh exports a binary format as bytes
     tmp = path.with_suffix(".tmp")
     tmp.write_bytes(data)
     tmp.replace(path)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import trimesh
@@ -51,12 +51,12 @@ def node_extras(
     parents = graph.parent_of() if graph is not None else {}
     names = {int(o.instance): o.node_name for o in objects}
     children: dict[str, list[str]] = {}
-    for edge in parents.values():
-        if not isinstance(edge.parent, Root) and int(edge.parent) in names and int(edge.child) in names:
-            children.setdefault(names[int(edge.parent)], []).append(names[int(edge.child)])
+    for e in parents.values():
+        if not isinstance(e.parent, Root) and int(e.parent) in names and int(e.child) in names:
+            children.setdefault(names[int(e.parent)], []).append(names[int(e.child)])
     out: dict[str, dict[str, Any]] = {}
     for obj in objects:
-        edge = parents.get(obj.instance)
+        edge = parents.get(InstanceId(obj.instance))
         out[obj.node_name] = {
             "instance": int(obj.instance),
             "label": obj.label,
@@ -98,7 +98,7 @@ def export_scene(
         rel = f"objects/{obj.node_name}.glb"
         write_bytes_atomic(out_dir / rel, object_glb(obj.vertices, obj.faces))
         hashes[rel] = hash_file(out_dir / rel)
-        edge = parents.get(obj.instance)
+        edge = parents.get(InstanceId(obj.instance))
         m = np.asarray(obj.world_from_asset, dtype=np.float64)
         entries.append(
             ExportedObject(
@@ -153,7 +153,8 @@ def read_exported_scene(
     exported = ExportedScene.read(scene_dir / "scene.json")
     objects = []
     for entry in exported.objects:
-        mesh = trimesh.load(scene_dir / entry.mesh, force="mesh", process=False)
+        # force="mesh" always gives a Trimesh; the stubs type load() as any Geometry
+        mesh = cast(trimesh.Trimesh, trimesh.load(scene_dir / entry.mesh, force="mesh", process=False))
         objects.append(
             ExportObject(
                 int(entry.instance),

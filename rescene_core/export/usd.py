@@ -26,7 +26,7 @@ from rescene_core.export.mjcf import BodyRecord
 from rescene_core.export.objects import ExportObject
 from rescene_core.export.physics_tables import SHELL_FRICTION
 from rescene_core.export.shell import shell_meshes
-from rescene_core.records import RoomShell, SceneGraph, parent_to_json
+from rescene_core.records import InstanceId, RoomShell, SceneGraph, parent_to_json
 
 LABEL_KEY = "rescene:label"
 """Key path of an object prim's ``customData`` entry holding its label verbatim (``Usd.Prim.GetCustomDataByKey``)."""
@@ -131,7 +131,7 @@ def write_usd(
             UsdPhysics.RigidBodyAPI.Apply(prim)
             UsdPhysics.MassAPI.Apply(prim).CreateMassAttr(float(body.mass))
         _bind(prim, _material(stage, f"/World/Materials/{obj.node_name}", body.friction))
-        edge = parents.get(obj.instance)
+        edge = parents.get(InstanceId(obj.instance))
         attrs = {
             "rescene:instance": (Sdf.ValueTypeNames.Int, int(obj.instance)),
             "rescene:label": (Sdf.ValueTypeNames.String, obj.label),
