@@ -82,3 +82,15 @@ def test_versions_asked_for_from_many_threads_at_once(package_copy):
     with ThreadPoolExecutor(8) as pool:
         hashes = list(pool.map(lambda s: source_hash(roots(s.stage), package_copy), list(DAG) * 4))
     assert hashes == [source_hash(roots(s.stage), package_copy) for s in list(DAG) * 4]
+
+
+def test_the_dag_wires_every_input_to_an_earlier_stage():
+    """Every body parameter is a run input, a gathered value, its item or an earlier stage's result."""
+    from rescene_core.stages.dag import StageSpec, check_dag
+
+    check_dag()
+
+    def needs_a_later_result(run_dir: str, layout: object) -> None: ...
+
+    with pytest.raises(ValueError, match="layout"):
+        check_dag((StageSpec(Stage.SHELL, needs_a_later_result, "shell"), *DAG))
