@@ -7,7 +7,7 @@ rotated and translated by its rotation and translation.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, TypeGuard
 
 import numpy as np
 import trimesh
@@ -126,7 +126,7 @@ def footprint_ring(points_xy: NDArray, grow: float) -> NDArray[np.float64]:
     return np.asarray(orient(rect, 1.0).exterior.coords, np.float64)[:-1]
 
 
-def is_solid(piece: Piece | None) -> bool:
+def is_solid(piece: Piece | None) -> TypeGuard[Piece]:
     return piece is not None and abs(float(trimesh.Trimesh(*piece, process=False).volume)) > MIN_PIECE_VOLUME
 
 
@@ -159,7 +159,7 @@ def carve(pieces: list[Piece], ring: NDArray, z_lo: float, z_hi: float) -> tuple
         for normal, origin in planes:  # the parts outside the prism, then what is left inside it
             outside = slice_piece(rest, normal, origin)  # type: ignore[arg-type]
             if is_solid(outside):
-                kept.append(outside)  # type: ignore[arg-type]
+                kept.append(outside)
             rest = slice_piece(rest, -normal, origin)  # type: ignore[arg-type]
             if rest is None:
                 break
@@ -173,7 +173,7 @@ def carve(pieces: list[Piece], ring: NDArray, z_lo: float, z_hi: float) -> tuple
         removed = max(removed, float(between[0][:, 2].max()) - z_lo)  # type: ignore[index]
         for part in (slice_piece(rest, DOWN, low), slice_piece(rest, UP, high) if np.isfinite(z_hi) else None):
             if is_solid(part):
-                kept.append(part)  # type: ignore[arg-type]
+                kept.append(part)
         out.extend(kept)
     return out, removed
 

@@ -68,7 +68,7 @@ def clear_of_walls(
             kept = slice_piece((world, piece[1]), normal, origin)
             if not is_solid(kept):
                 continue
-            out[k] = (place.body(kept[0]), kept[1])  # type: ignore[index]
+            out[k] = (place.body(kept[0]), kept[1])
             cut[str(wall.id)] = round(max(cut.get(str(wall.id), 0.0), depth), 4)
     return out, cut
 

@@ -125,8 +125,8 @@ def validate_answer(text: str | None, categories: dict[int, str], min_coverage: 
             parent = raw_parent.strip().lower()
         elif isinstance(raw_parent, str) and raw_parent.strip().isdigit():
             parent = int(raw_parent.strip())
-        elif _as_int(raw_parent) is not None:
-            parent = _as_int(raw_parent)  # type: ignore[assignment]
+        elif (as_int := _as_int(raw_parent)) is not None:
+            parent = as_int
         else:
             st.errors.append(f"id {did}: parent {raw_parent!r} is not a marked id, 'floor' or 'wall'")
             continue
