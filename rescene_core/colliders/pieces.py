@@ -157,20 +157,20 @@ def carve(pieces: list[Piece], ring: NDArray, z_lo: float, z_hi: float) -> tuple
         kept: list[Piece] = []
         rest: Piece | None = piece
         for normal, origin in planes:  # the parts outside the prism, then what is left inside it
-            outside = slice_piece(rest, normal, origin)  # type: ignore[arg-type]
-            if is_solid(outside):
-                kept.append(outside)
-            rest = slice_piece(rest, -normal, origin)  # type: ignore[arg-type]
             if rest is None:
                 break
+            outside = slice_piece(rest, normal, origin)
+            if is_solid(outside):
+                kept.append(outside)
+            rest = slice_piece(rest, -normal, origin)
         low, high = np.array([0.0, 0.0, z_lo]), np.array([0.0, 0.0, z_hi])
         between = None if rest is None else slice_piece(rest, UP, low)
         if between is not None and np.isfinite(z_hi):
             between = slice_piece(between, DOWN, high)
-        if rest is None or not is_solid(between):
+        if rest is None or between is None or not is_solid(between):
             out.append(piece)  # it only touches the prism
             continue
-        removed = max(removed, float(between[0][:, 2].max()) - z_lo)  # type: ignore[index]
+        removed = max(removed, float(between[0][:, 2].max()) - z_lo)
         for part in (slice_piece(rest, DOWN, low), slice_piece(rest, UP, high) if np.isfinite(z_hi) else None):
             if is_solid(part):
                 kept.append(part)

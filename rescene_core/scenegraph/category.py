@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,8 @@ class CategoryPrior:
     counts: dict[str, dict[str, dict[str, float]]]
     provenance: str
     path: str | None = None
+    _any: dict[str, dict[str, float]] = field(init=False, repr=False, compare=False)
+    """The counts of every child category summed (the row of a category the table does not have)."""
 
     def __post_init__(self) -> None:
         total: dict[str, dict[str, float]] = {}
@@ -53,7 +55,7 @@ class CategoryPrior:
         key = normalize_label(child_label)
         if key in self.counts:
             return self.counts[key], True
-        return self._any, False  # type: ignore[attr-defined]
+        return self._any, False
 
     def phi(self, child_label: str, relation: Relation, parent_label: str) -> float:
         """Phi in [0, 1] for (child category, relation, parent category or 'floor'/'wall')."""

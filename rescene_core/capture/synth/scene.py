@@ -172,8 +172,9 @@ def make_scene(preset: str | SynthPreset = "tiny", seed: int = 0, **overrides) -
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     root_rng = np.random.default_rng(seed)
-    # default_rng(int) holds a SeedSequence; the stubs type it as the ISeedSequence interface, which has no spawn
-    rngs = [np.random.default_rng(s) for s in root_rng.bit_generator.seed_seq.spawn(6)]  # type: ignore[attr-defined]
+    seed_seq = root_rng.bit_generator.seed_seq
+    assert isinstance(seed_seq, np.random.SeedSequence)  # default_rng(int) seeds with a SeedSequence
+    rngs = [np.random.default_rng(s) for s in seed_seq.spawn(6)]
     rng_layout, rng_cam, rng_look, rng_err, _rng_frames, rng_ids = rngs
     room = random_room(rng_layout, cfg)
     lay = furnish(room, cfg, rng_layout)
