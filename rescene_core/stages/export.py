@@ -12,7 +12,6 @@ from rescene_core.io import read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import Layout, Missing, Ref, SceneGraph, Stage
 from rescene_core.stages import common
-from rescene_core.stages.common import load_shell
 from rescene_core.stages.execution import executing, make_ref
 
 
@@ -37,7 +36,7 @@ def run(
         hashes = export_scene(
             run.scene,
             objects,
-            load_shell(run_dir, shell),
+            common.load_shell(run_dir, shell),
             SceneGraph.from_json(read_json(run.root / graph.path)),
             all_missing,
             config,
