@@ -9,6 +9,7 @@ aligns, segments, fuses and writes the capture.
 from __future__ import annotations
 
 import csv
+import functools
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -208,6 +209,16 @@ def read_png_int(path: Path) -> NDArray:
     return arr
 
 
+def read_mask(path: Path) -> NDArray[np.int32]:
+    """Instance ids [H, W] int32 (0 = none) from an integer PNG; ids beyond int32 are refused by name."""
+    ids = read_png_int(path)
+    if ids.size and (int(ids.min()) < 0 or int(ids.max()) > np.iinfo(np.int32).max):
+        raise ImportInputError(
+            f"{path}: instance ids outside 0..2^31-1 (max {int(ids.max())}); renumber the instance PNGs"
+        )
+    return ids.astype(np.int32, copy=False)
+
+
 def read_depth(path: Path, scale: float, opts: ImportOptions) -> NDArray[np.float32]:
     """Metric depth [H, W] float32 from an integer PNG (units * scale); out-of-range values become 0."""
     raw = read_png_int(path)
@@ -296,12 +307,20 @@ def check_pose(pose: NDArray, tolerance: float) -> tuple[NDArray[np.float64] | N
     return out, ""
 
 
+READ_CHUNK = 32
+"""Frames decoded per batch of the reading threads (each batch goes into the output arrays at once)."""
+
+
 def read_parallel(fn: Callable[[int], Any], n: int, threads: int) -> list[Any]:
     """``[fn(0), ..., fn(n - 1)]`` with a thread pool (image decoding releases the GIL)."""
     if threads <= 1 or n <= 1:
         return [fn(k) for k in range(n)]
     with ThreadPoolExecutor(max_workers=threads) as pool:
         return list(pool.map(fn, range(n)))
+
+
+def _offset_call(fn: Callable[[int], Any], offset: int, k: int) -> Any:
+    return fn(offset + k)
 
 
 def select_frames(n: int, opts: ImportOptions) -> list[int]:
@@ -398,62 +417,70 @@ def load_frames(
         medians = [m for m in (_safe_median(p) for p in probe) if m is not None]
         check_depth_units(medians, depth_scale, depth_files[ok[0]].parent, opts)
 
-    def read(j: int):
+    def read(j: int) -> tuple[NDArray, NDArray | None, NDArray | None] | ImportInputError:
         k = ok[j]
         try:
             rgb = read_rgb(rgb_files[k])
             depth = read_depth(depth_files[k], depth_scale, opts) if depth_files is not None else None
-            mask = read_png_int(mask_files[k]).astype(np.int64) if mask_files is not None else None
+            mask = read_mask(mask_files[k]) if mask_files is not None else None
         except ImportInputError as err:
             return err
         return rgb, depth, mask
 
-    loaded = read_parallel(read, len(ok), opts.threads)
-    frames: list[tuple] = []
+    # Frames are decoded a chunk at a time straight into the output arrays (allocated once, lazily paged
+    # in by the OS), so reading holds the capture once, not a list of decoded frames beside its copy.
+    n_ok = len(ok)
+    rgb_out = depth_out = mask_out = None
+    K_out = np.zeros((n_ok, 3, 3))
     kept: list[int] = []
-    for j, item in enumerate(loaded):
-        k = ok[j]
-        if isinstance(item, ImportInputError):
-            dropped.append(Dropped(source_index[k], rgb_files[k].name, f"unreadable: {item}"))
-            continue
-        frames.append(item)
-        kept.append(j)
+    resized_rgb = resized_depth = False
+    w = h = 0
+    for lo in range(0, n_ok, READ_CHUNK):
+        chunk = range(lo, min(lo + READ_CHUNK, n_ok))
+        loaded = read_parallel(functools.partial(_offset_call, read, lo), len(chunk), opts.threads)
+        for j, item in zip(chunk, loaded, strict=True):
+            k = ok[j]
+            if isinstance(item, ImportInputError):
+                dropped.append(Dropped(source_index[k], rgb_files[k].name, f"unreadable: {item}"))
+                continue
+            rgb, depth, mask = item
+            if rgb_out is None:
+                if size is None:
+                    ref = depth if depth is not None else rgb
+                    size = (ref.shape[1], ref.shape[0])
+                w, h = size
+                rgb_out = np.zeros((n_ok, h, w, 3), np.uint8)
+                depth_out = np.zeros((n_ok, h, w), np.float32) if depth_files is not None else None
+                mask_out = np.zeros((n_ok, h, w), np.int32) if mask_files is not None else None
+            i = len(kept)
+            K = np.asarray(Ks[k], np.float64).copy()
+            if rgb.shape[:2] != (h, w):
+                K = scale_intrinsics(K, rgb.shape[1], rgb.shape[0], w, h)
+                rgb = resize(rgb, w, h, nearest=False)
+                resized_rgb = True
+            rgb_out[i] = rgb
+            K_out[i] = K
+            if depth is not None and depth_out is not None:
+                if depth.shape != (h, w):
+                    depth = resize(depth, w, h, nearest=True)
+                    resized_depth = True
+                depth_out[i] = depth
+            if mask is not None and mask_out is not None:
+                mask_out[i] = mask if mask.shape == (h, w) else resize(mask, w, h, nearest=True)
+            kept.append(j)
     unreadable = sum(1 for d in dropped if d.reason.startswith("unreadable"))
-    if not frames or unreadable > opts.max_unreadable_fraction * len(ok):
+    if rgb_out is None or not kept or unreadable > opts.max_unreadable_fraction * n_ok:
         first = next((d for d in dropped if d.reason.startswith("unreadable")), None)
         raise ImportInputError(
-            f"{src}: {unreadable} of {len(ok)} frames are unreadable"
+            f"{src}: {unreadable} of {n_ok} frames are unreadable"
             + (f" (first: {first.reason})" if first else "")
             + "; re-export the images"
         )
-    if size is None:
-        ref = frames[0][1] if frames[0][1] is not None else frames[0][0]
-        size = (ref.shape[1], ref.shape[0])
-    w, h = size
+    n = len(kept)  # the arrays' unread tail (dropped frames) is sliced off: views, no copy
+    rgb_out, K_out = rgb_out[:n], K_out[:n]
+    depth_out = None if depth_out is None else depth_out[:n]
+    mask_out = None if mask_out is None else mask_out[:n]
     notes: list[str] = []
-    rgb_out = np.zeros((len(frames), h, w, 3), np.uint8)
-    depth_out = np.zeros((len(frames), h, w), np.float32) if depth_files is not None else None
-    mask_out = np.zeros((len(frames), h, w), np.int64) if mask_files is not None else None
-    K_out = np.zeros((len(frames), 3, 3))
-    resized_rgb = resized_depth = False
-    for i, (j, (rgb, depth, mask)) in enumerate(zip(kept, frames)):
-        k = ok[j]
-        K = np.asarray(Ks[k], np.float64).copy()
-        if rgb.shape[:2] != (h, w):
-            K = scale_intrinsics(K, rgb.shape[1], rgb.shape[0], w, h)
-            rgb = resize(rgb, w, h, nearest=False)
-            resized_rgb = True
-        rgb_out[i] = rgb
-        K_out[i] = K
-        if depth is not None:
-            if depth.shape != (h, w):
-                depth = resize(depth, w, h, nearest=True)
-                resized_depth = True
-            depth_out[i] = depth
-        if mask is not None:
-            if mask.shape != (h, w):
-                mask = resize(mask, w, h, nearest=True)
-            mask_out[i] = mask
     if resized_rgb:
         notes.append(f"colour resized to {w}x{h} (intrinsics scaled to match)")
     if resized_depth:
@@ -467,7 +494,7 @@ def load_frames(
         depth=depth_out,
         K=K_out,
         world_from_cam=pose_out,
-        masks=None if mask_out is None else mask_out.astype(np.int32),
+        masks=mask_out,
         dropped=sorted(dropped, key=lambda d: d.frame),
         notes=notes,
         frames_in_source=frames_in_source or len(poses),
