@@ -18,22 +18,27 @@ or the mesh is not a sound closed surface, the piece is the convex hull of the m
 is flat or degenerate, the mesh's oriented bounding box thickened to ``min_thickness``; each fallback is
 written in the decomposition's ``notes`` (they go to ``scene/export_report.json``).
 
-CoACD results are cached on disk under the hash of the decomposed mesh's vertices and faces and the CoACD
-settings, so the same mesh (the same asset, a re-run, the ground truth of a seed) is decomposed once; the
-exact pieces take milliseconds and are not cached (an entry always holds CoACD's answer for exactly the
-mesh it is keyed on, so entries written before the exact pieces existed keep their meaning).
+CoACD results are cached in the user cache (rescene_core/usercache.py: ``$RESCENE_CACHE_DIR/convex``,
+size-capped, shared by every run and safe under concurrent writers) under the hash of the decomposed mesh's
+vertices and faces, the CoACD settings and the code that answers (``coacd_code_version``: the coacd and
+Open3D versions and the worker's source), so the same mesh (the same asset, a second run of a scene in a
+fresh run directory, another scene of a split with the same furniture, the ground truth of a seed) is
+decomposed once; the exact pieces take milliseconds and are not cached (an entry always holds CoACD's
+answer for exactly the mesh it is keyed on). An entry that does not decode is decomposed and written again.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import importlib.metadata
 import io
 import json
-import os
 import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,7 +47,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from rescene_core.io import write_bytes_atomic
+from rescene_core.usercache import UserCache, cache_root, content_key
 
 COACD_PARAMS_VERSION = 1
 """Bumped when the CoACD keywords change meaning, so old cache entries are not reused."""
@@ -103,19 +108,43 @@ class Decomposition:
         return float(sum(trimesh.Trimesh(v, f, process=False).volume for v, f in self.pieces))
 
 
+CACHE_NAMESPACE = "convex"
+"""The user cache's folder of decompositions."""
+
+
 def default_cache_dir() -> Path:
-    """``$RESCENE_CACHE_DIR/convex`` or ``~/.cache/rescene/convex``."""
-    root = os.environ.get("RESCENE_CACHE_DIR") or Path.home() / ".cache" / "rescene"
-    return Path(root) / "convex"
+    """``$RESCENE_CACHE_DIR/convex`` (or the user cache's default root, see rescene_core/usercache.py)."""
+    return cache_root() / CACHE_NAMESPACE
+
+
+def decomposition_cache(settings: DecompositionSettings) -> UserCache:
+    """The cache of ``settings``: its ``cache_dir`` when set, else the user cache's ``convex`` folder."""
+    return UserCache(CACHE_NAMESPACE, directory=settings.cache_dir)
+
+
+@functools.cache
+def coacd_code_version() -> dict[str, str]:
+    """What a cached CoACD answer depends on besides the mesh and the keywords: the coacd and Open3D
+    (the simplification before it) versions and the worker script's source."""
+
+    def version(name: str) -> str:
+        try:
+            return importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            return "absent"
+
+    worker = hashlib.sha256(WORKER_SCRIPT.read_bytes()).hexdigest()[:16]
+    return {"coacd": version("coacd"), "open3d": version("open3d"), "worker": worker}
 
 
 def mesh_key(vertices: NDArray, faces: NDArray, params: dict[str, object]) -> str:
-    """sha256 of the mesh (float64 vertices, int64 faces) and the decomposition settings."""
-    h = hashlib.sha256()
-    h.update(np.ascontiguousarray(vertices, np.float64).tobytes())
-    h.update(np.ascontiguousarray(faces, np.int64).tobytes())
-    h.update(json.dumps({**params, "version": COACD_PARAMS_VERSION}, sort_keys=True).encode())
-    return h.hexdigest()
+    """sha256 of the mesh (float64 vertices, int64 faces), the decomposition settings and the code version."""
+    return content_key(
+        np.ascontiguousarray(vertices, np.float64),
+        np.ascontiguousarray(faces, np.int64),
+        {**params, "version": COACD_PARAMS_VERSION},
+        coacd_code_version(),
+    )
 
 
 def check_mesh(vertices: NDArray, faces: NDArray) -> list[str]:
@@ -212,7 +241,7 @@ def _convex_pieces(raw: list[tuple[NDArray, NDArray]]) -> list[tuple[NDArray, ND
     return out
 
 
-def _save(path: Path, dec: Decomposition) -> None:
+def _encode(dec: Decomposition) -> bytes:
     data = io.BytesIO()
     np.savez(
         data,
@@ -222,19 +251,19 @@ def _save(path: Path, dec: Decomposition) -> None:
         face_offsets=np.concatenate([[0], np.cumsum([len(f) for _, f in dec.pieces])]).astype(np.int64),
         meta=json.dumps({"method": dec.method, "seconds": dec.seconds, "notes": list(dec.notes)}),
     )
-    write_bytes_atomic(path, data.getvalue())
+    return data.getvalue()
 
 
-def _load(path: Path) -> Decomposition | None:
+def _decode(raw: bytes) -> Decomposition | None:
     try:
-        data = np.load(path)
+        data = np.load(io.BytesIO(raw))
         meta = json.loads(str(data["meta"]))
         vo, fo = data["vertex_offsets"], data["face_offsets"]
         pieces = tuple(
             (np.asarray(data["vertices"][vo[k] : vo[k + 1]]), np.asarray(data["faces"][fo[k] : fo[k + 1]]))
             for k in range(len(vo) - 1)
         )
-    except (OSError, ValueError, KeyError):  # a damaged cache entry is decomposed again
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):  # a damaged entry: decomposed again
         return None
     return Decomposition(pieces, meta["method"], float(meta["seconds"]), True, tuple(meta["notes"]))
 
@@ -335,10 +364,12 @@ def _decompose_coacd(v: NDArray, f: NDArray, problems: list[str], settings: Deco
     start = time.perf_counter()
     params = settings.coacd_params(watertight=not problems)
     key = mesh_key(v, f, params)
-    cache = Path(settings.cache_dir) if settings.cache_dir else default_cache_dir()
-    entry = cache / key[:2] / f"{key}.npz"
-    if entry.exists() and (hit := _load(entry)) is not None:
-        return hit
+    cache = decomposition_cache(settings)
+    raw = cache.get(key, ".npz")
+    if raw is not None:
+        if (hit := _decode(raw)) is not None:
+            return hit
+        cache.discard(key, ".npz")
     notes: list[str] = []
     pieces: list[tuple[NDArray, NDArray]] = []
     timed_out = False
@@ -362,10 +393,7 @@ def _decompose_coacd(v: NDArray, f: NDArray, problems: list[str], settings: Deco
         pieces, notes = list(hull), notes + more
     dec = Decomposition(tuple(pieces), method, round(time.perf_counter() - start, 3), False, tuple(notes))
     if not timed_out:  # a time-out depends on the machine's load: the next export tries again
-        try:
-            _save(entry, dec)
-        except OSError:  # a read-only cache only costs time
-            pass
+        cache.put(key, ".npz", _encode(dec))  # a read-only cache only costs time
     return dec
 
 
