@@ -35,6 +35,7 @@ $(STAMP): pyproject.toml package.json
 	@$(PY) -m pip install -q --upgrade uv
 	$(PY) -m uv pip install --python $(PY) -e '.[dev]'
 	npm install --no-audit --no-fund --loglevel=error
+	$(PY) -m rescene_core.sim.newton_warm
 	@touch $(STAMP)
 
 setup: $(STAMP) ## create .venv and install ReScene with its CPU dependencies

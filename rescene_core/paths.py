@@ -52,6 +52,7 @@ SCENE_POINTS = "scene/points.zarr"
 
 # checks, evaluation, VQA
 SIMCHECK = "sim/simcheck.json"
+SIMCHECK_NEWTON = "sim/simcheck-newton.json"
 SIM_PICTURE = "sim/before_after.png"
 EVAL = "eval/"
 METRICS = "eval/metrics.json"
@@ -231,6 +232,10 @@ class RunPaths:
     @property
     def simcheck(self) -> Path:
         return self._at(SIMCHECK)
+
+    @property
+    def simcheck_newton(self) -> Path:
+        return self._at(SIMCHECK_NEWTON)
 
     @property
     def sim_picture(self) -> Path:

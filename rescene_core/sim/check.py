@@ -130,6 +130,63 @@ def _shake(config: SimcheckConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return dirs, phases, 2 * np.pi * np.asarray(config.shake_hz, np.float64)
 
 
+def classify(
+    kinds: dict[str, str],
+    start: dict[str, np.ndarray],
+    end: dict[str, np.ndarray],
+    start_quat: dict[str, np.ndarray],
+    end_quat: dict[str, np.ndarray],
+    depth_t0: dict[str, float],
+    shell: RoomShell | None,
+    config: SimcheckConfig,
+) -> list[ObjectDrift]:
+    """Each body's drift and verdict, whatever engine moved it. Per node: ``kinds`` "free" or "fixed",
+    centre of mass before and after ([3], m, world), orientation before and after (unit quaternions [4],
+    any one convention for both), deepest contact at t=0 (m). The rules are the module doc's."""
+    floor_z, top_z, room = 0.0, np.inf, None
+    if shell is not None:
+        floor_z = floor_height(shell)
+        top_z = floor_z + (shell.ceiling_height or 2.5) + 0.5
+        room = Polygon(shell.floor_polygon).buffer(config.escape_margin)
+    objects = []
+    for name, kind in kinds.items():
+        moved = float(np.linalg.norm(end[name] - start[name]))
+        dot = abs(float(np.dot(end_quat[name], start_quat[name])))
+        turned = float(np.degrees(2 * np.arccos(min(1.0, dot))))
+        at = end[name]
+        fell = bool(at[2] < floor_z)
+        escaped = bool((room is not None and not room.contains(Point(at[0], at[1]))) or at[2] > top_z)
+        stable = moved < config.stable_translation and turned < config.stable_rotation_deg and not fell
+        objects.append(
+            ObjectDrift(
+                name, kind, round(moved, 6), round(turned, 4), round(depth_t0.get(name, 0.0), 6), stable, fell, escaped
+            )
+        )
+    return objects
+
+
+def summarise(objects: list[ObjectDrift], config: SimcheckConfig, seconds: float) -> SimcheckSummary:
+    """The summary of classified bodies; ``seconds``: wall time of the check."""
+    free = [o for o in objects if o.kind == "free"]
+    pens = [o.penetration_t0 for o in objects]
+    return SimcheckSummary(
+        objects=len(objects),
+        free=len(free),
+        fixed=len(objects) - len(free),
+        stable=sum(o.stable for o in free),
+        stable_fraction=round(sum(o.stable for o in free) / len(free), 4) if free else 1.0,
+        fell_through=sum(o.fell_through for o in free),
+        escaped=sum(o.escaped for o in free),
+        penetration_t0_max=round(max(pens, default=0.0), 6),
+        penetration_t0_mean=round(float(np.mean(pens)) if pens else 0.0, 6),
+        drift_max=round(max((o.translation for o in free), default=0.0), 6),
+        rotation_max_deg=round(max((o.rotation_deg for o in free), default=0.0), 4),
+        seconds_simulated=config.seconds,
+        shake=config.shake,
+        seconds=round(seconds, 3),
+    )
+
+
 def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) -> tuple[SimcheckResult, dict]:
     """Run the check on an MJCF written by rescene_core/export/mjcf.py. Returns the result and the
     before/after poses {node: (centre before [3], centre after [3])} for the picture."""
@@ -163,50 +220,25 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
     if not np.isfinite(data.qpos).all():
         raise RuntimeError(f"{mjcf}: the simulation diverged (non-finite state)")
 
-    floor_z, top_z, room = 0.0, np.inf, None
-    if shell is not None:
-        floor_z = floor_height(shell)
-        top_z = floor_z + (shell.ceiling_height or 2.5) + 0.5
-        room = Polygon(shell.floor_polygon).buffer(config.escape_margin)
-    objects = []
-    for b, name in names.items():
-        kind = "free" if b in free_bodies else "fixed"
-        moved = float(np.linalg.norm(data.xipos[b] - start_pos[b]))
-        dot = abs(float(np.dot(data.xquat[b], start_quat[b])))
-        turned = float(np.degrees(2 * np.arccos(min(1.0, dot))))
-        end = data.xipos[b]
-        fell = bool(end[2] < floor_z)
-        escaped = bool((room is not None and not room.contains(Point(end[0], end[1]))) or end[2] > top_z)
-        stable = moved < config.stable_translation and turned < config.stable_rotation_deg and not fell
-        objects.append(
-            ObjectDrift(
-                name, kind, round(moved, 6), round(turned, 4), round(depth_t0.get(b, 0.0), 6), stable, fell, escaped
-            )
-        )
-    free = [o for o in objects if o.kind == "free"]
-    pens = [o.penetration_t0 for o in objects]
-    summary = SimcheckSummary(
-        objects=len(objects),
-        free=len(free),
-        fixed=len(objects) - len(free),
-        stable=sum(o.stable for o in free),
-        stable_fraction=round(sum(o.stable for o in free) / len(free), 4) if free else 1.0,
-        fell_through=sum(o.fell_through for o in free),
-        escaped=sum(o.escaped for o in free),
-        penetration_t0_max=round(max(pens, default=0.0), 6),
-        penetration_t0_mean=round(float(np.mean(pens)) if pens else 0.0, 6),
-        drift_max=round(max((o.translation for o in free), default=0.0), 6),
-        rotation_max_deg=round(max((o.rotation_deg for o in free), default=0.0), 4),
-        seconds_simulated=config.seconds,
-        shake=config.shake,
-        seconds=round(time.perf_counter() - started, 3),
+    motion_end = {b: data.xipos[b].copy() for b in names}
+    end_quat = {b: data.xquat[b].copy() for b in names}
+    objects = classify(
+        {names[b]: "free" if b in free_bodies else "fixed" for b in names},
+        {names[b]: start_pos[b] for b in names},
+        {names[b]: motion_end[b] for b in names},
+        {names[b]: start_quat[b] for b in names},
+        {names[b]: end_quat[b] for b in names},
+        {names[b]: depth_t0.get(b, 0.0) for b in names},
+        shell,
+        config,
     )
+    summary = summarise(objects, config, time.perf_counter() - started)
     deepest: tuple[str, str] | None = None
     if pair is not None:
         first, second = (str(model.body(int(model.geom_bodyid[g])).name or "world") for g in pair)
         deepest = (first, second)
     result = SimcheckResult(tuple(objects), summary, deepest, config.model_dump(mode="json"))
-    motion = {names[b]: (start_pos[b], data.xipos[b].copy()) for b in names}
+    motion = {names[b]: (start_pos[b], motion_end[b]) for b in names}
     return result, motion
 
 
