@@ -27,6 +27,17 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
+def parse_frames(text: str) -> list[int]:
+    """'120,600,1200' -> [120, 600, 1200]: frame counts, each at least 2."""
+    try:
+        counts = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--frames {text!r}: give whole numbers, e.g. 120,600,1200") from None
+    if not counts or min(counts) < 2:
+        raise argparse.ArgumentTypeError(f"--frames {text!r}: give frame counts of at least 2, e.g. 120,600,1200")
+    return counts
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from rescene_core.capture import check_capture, open_capture
     from rescene_core.capture.validate import check_identity
@@ -166,6 +177,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         options["held_out"] = args.held_out
     if args.shake:
         options["shake"] = True
+    if args.frames is not None:  # the scale suite's frame counts; run_suite refuses it for the others
+        options["frames"] = args.frames
     if args.suite == "pipeline":  # the suite measures the flow: the command line hands it the Prefect harness
         from flows.bench import PrefectHarness
 
@@ -247,6 +260,13 @@ def build_parser() -> argparse.ArgumentParser:
         default="standard",
         choices=["tiny", "standard", "cluttered", "egocentric", "all"],
         help="synthetic preset (all: standard and cluttered, in the assembly and sim suites)",
+    )
+    p.add_argument(
+        "--frames",
+        type=parse_frames,
+        default=None,
+        metavar="N,N,...",
+        help="frame counts of the same room, e.g. 120,600,1200 (scale suite; default 120,600,1200)",
     )
     p.add_argument("--list", action="store_true", help="list the suites")
     p.set_defaults(func=_cmd_bench)

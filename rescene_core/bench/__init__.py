@@ -29,6 +29,7 @@ SUITES: dict[str, str] = {
     "sim": "rescene_core.bench.sim",
     "paper": "rescene_core.bench.paper",
     "import": "rescene_core.bench.importers",
+    "scale": "rescene_core.bench.scale",
 }
 """Suite name -> module. A suite whose module is not there yet is listed but reports so when run."""
 

@@ -10,6 +10,7 @@ whose world is not z up (e.g. y up like a HoloLens).
 from __future__ import annotations
 
 import json
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ import trimesh
 from numpy.typing import NDArray
 from PIL import Image
 
-from rescene_core.capture.format import CaptureArrays
+from rescene_core.capture.format import Capture, CaptureArrays
 from rescene_core.capture.importers.common import OPENGL_FROM_OPENCV
 
 Y_UP_FROM_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, -1.0, 0, 0], [0, 0, 0, 1.0]])
@@ -36,7 +37,7 @@ def _ids_png(ids: NDArray) -> Image.Image:
     return Image.fromarray(ids.astype(np.uint16))
 
 
-def _poses(arrays: CaptureArrays, source_from_world: NDArray | None) -> NDArray[np.float64]:
+def _poses(arrays: CaptureArrays | Capture, source_from_world: NDArray | None) -> NDArray[np.float64]:
     poses = np.asarray(arrays.world_from_cam, np.float64)
     if source_from_world is not None:
         poses = np.einsum("ij,tjk->tik", np.asarray(source_from_world, np.float64), poses)
@@ -105,36 +106,52 @@ SCANNET_LABEL_TSV_HEADER = "id\traw_category\tcategory\tcount\tnyu40id\tnyu40cla
 
 
 def write_scannet(
-    arrays: CaptureArrays,
+    arrays: CaptureArrays | Capture,
     dest: str | Path,
     source_from_world: NDArray | None = None,
     color_scale: int = 2,
     inf_pose_frames: tuple[int, ...] = (),
+    threads: int = 2,
 ) -> Path:
     """A ScanNet reader export: color/N.jpg (``color_scale`` x the depth size), depth/N.png (uint16 mm),
     pose/N.txt, intrinsic/intrinsic_{color,depth}.txt (4x4), instance-filt/N.png, label-filt/N.png and a
-    label map TSV. inf_pose_frames: frames whose pose is written as all -inf, as ScanNet does."""
+    label map TSV. inf_pose_frames: frames whose pose is written as all -inf, as ScanNet does.
+
+    ``arrays`` may be an opened capture: its frames are read one at a time (a long scan is never held in
+    memory) and encoded on ``threads`` threads."""
     dest = Path(dest)
+    depth = arrays.depth
+    if depth is None:
+        raise ValueError("the scannet layout needs depth")
     for sub in ("color", "depth", "pose", "intrinsic", "instance-filt", "label-filt"):
         (dest / sub).mkdir(parents=True, exist_ok=True)
     poses = _poses(arrays, source_from_world)
     names = sorted({inst.label for inst in arrays.instances})
     label_id = {name: k + 1 for k, name in enumerate(names)}
-    lut = np.zeros(int(arrays.instance_masks.max()) + 1, np.int64)
+    lut = np.zeros(max((int(inst.id) for inst in arrays.instances), default=0) + 1, np.int64)
     for inst in arrays.instances:
         lut[int(inst.id)] = label_id[inst.label]
     h, w = arrays.rgb.shape[1:3]
-    for t in range(len(arrays.rgb)):
+
+    def frame(t: int) -> None:
         rgb = Image.fromarray(np.asarray(arrays.rgb[t]))
         if color_scale != 1:
             rgb = rgb.resize((w * color_scale, h * color_scale), Image.Resampling.BILINEAR)
         rgb.save(dest / "color" / f"{t}.jpg", quality=95)
-        _depth_png(arrays.depth[t]).save(dest / "depth" / f"{t}.png")
+        _depth_png(np.asarray(depth[t])).save(dest / "depth" / f"{t}.png")
         pose = np.full((4, 4), -np.inf) if t in inf_pose_frames else poses[t]
         np.savetxt(dest / "pose" / f"{t}.txt", pose, fmt="%.17g")
         ids = np.asarray(arrays.instance_masks[t])
         _ids_png(ids).save(dest / "instance-filt" / f"{t}.png")
-        _ids_png(lut[ids]).save(dest / "label-filt" / f"{t}.png")
+        labels = np.where(ids < len(lut), lut[np.minimum(ids, len(lut) - 1)], 0)  # ids without a record: 0
+        _ids_png(labels).save(dest / "label-filt" / f"{t}.png")
+
+    if threads > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            list(pool.map(frame, range(len(arrays.rgb))))
+    else:
+        for t in range(len(arrays.rgb)):
+            frame(t)
     K4 = np.eye(4)
     K4[:3, :3] = np.asarray(arrays.K[0])
     np.savetxt(dest / "intrinsic" / "intrinsic_depth.txt", K4, fmt="%.17g")

@@ -1,0 +1,42 @@
+"""The scale suite (rescene_core/bench/scale.py): its slope, its resident-set sampler and its frame counts
+on the command line (its import child: tests/capture/importers/test_scale_import.py, beside the importers'
+shared tiny scene; its run child is the whole pipeline, minutes, measured by the suite itself)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import pytest
+
+from flows.cli import parse_frames
+from rescene_core.bench import scale
+
+
+def test_slope_is_the_power_of_the_growth():
+    frames = [120, 600, 1200]
+    assert scale.slope(frames, [0.01 * f for f in frames]) == pytest.approx(1.0, abs=1e-3)
+    assert scale.slope(frames, [1e-4 * f**2 for f in frames]) == pytest.approx(2.0, abs=1e-3)
+    assert scale.slope(frames, [3.0, 3.0, 3.0]) == pytest.approx(0.0, abs=1e-3)
+    assert scale.slope([120], [1.0]) is None and scale.slope([120, 600], [0.0, 1.0]) is None
+
+
+def test_the_sampler_sees_an_allocation_inside_its_window():
+    with scale._RssSampler() as rss:
+        time.sleep(3 * scale.SAMPLE_S)
+        start = time.time_ns()
+        block = np.ones(100_000_000 // 8)  # 100 MB, touched
+        time.sleep(4 * scale.SAMPLE_S)
+        end = time.time_ns()
+        del block
+    before = rss.peak(0, start)
+    during = rss.peak(start, end)
+    assert before is not None and during is not None and during - before > 75e6
+
+
+def test_frame_counts_on_the_command_line():
+    assert parse_frames("120,600,1200") == [120, 600, 1200]
+    for bad in ("120,x", "1", ""):
+        with pytest.raises(argparse.ArgumentTypeError, match="--frames"):
+            parse_frames(bad)
