@@ -177,6 +177,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         options["held_out"] = args.held_out
     if args.shake:
         options["shake"] = True
+    if args.newton:
+        options["newton"] = True
     if args.frames is not None:  # the scale suite's frame counts; run_suite refuses it for the others
         options["frames"] = args.frames
     if args.suite == "pipeline":  # the suite measures the flow: the command line hands it the Prefect harness
@@ -255,6 +257,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="held-out seeds, e.g. 100-119, reported in their own block beside --seeds (sim and assembly suites)",
     )
     p.add_argument("--shake", action="store_true", help="also check each scene with the room shaken (sim suite)")
+    p.add_argument(
+        "--newton", action="store_true", help="also check each scene's USD in Newton (sim suite; the `newton` extra)"
+    )
     p.add_argument(
         "--preset",
         default="standard",

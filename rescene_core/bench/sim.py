@@ -15,7 +15,9 @@ WORK/convex_cache, so a first run pays CoACD and later runs do not: ``decompose_
 only the meshes decomposed in this run), collision pieces per object, and the physics check's stable
 fraction (over all free objects, and the lowest scene's), t=0 penetration (max, mean), objects fallen
 through and escaped, simulation seconds. With ``--shake`` the same MJCF is checked again with the room
-shaken (``shake_check``) and the stable fraction under shake is reported beside the calm one.
+shaken (``shake_check``) and the stable fraction under shake is reported beside the calm one. With
+``newton`` the same scene's ``scene.usda`` is checked in Newton too (``rescene_core/sim/newton_check.py``,
+calm) and its stable fraction is reported beside MuJoCo's, with the objects the engines disagree on.
 """
 
 from __future__ import annotations
@@ -91,10 +93,18 @@ def _unstable(check: SimcheckResult) -> list[str]:
 
 
 def measure_scene(
-    seed_set: str, preset: str, seed: int, layout: str, work_dir: Path, config: ExportConfig, shake: bool
+    seed_set: str,
+    preset: str,
+    seed: int,
+    layout: str,
+    work_dir: Path,
+    config: ExportConfig,
+    shake: bool,
+    newton: bool = False,
 ) -> dict[str, Any]:
-    """One layout of one scene exported and checked: calm, and shaken too with ``shake``. An export or a
-    calm check that fails is recorded as ``error``; a shaken check that diverges as ``shake_error``."""
+    """One layout of one scene exported and checked: calm, shaken too with ``shake``, in Newton too with
+    ``newton``. An export or a calm check that fails is recorded as ``error``; a shaken check that diverges
+    as ``shake_error``, a Newton check that fails as ``newton_error``."""
     build = gt_scene if layout == "gt" else pipeline_scene
     entry: dict[str, Any] = {"seed_set": seed_set, "preset": preset, "seed": seed, "layout": layout}
     try:
@@ -113,10 +123,21 @@ def measure_scene(
         else:
             entry["shake"] = shaken.summary.to_json()
             entry["unstable_shake"] = _unstable(shaken)
+    if newton:
+        from rescene_core.sim.newton_check import newton_simcheck_run
+
+        try:
+            record = newton_simcheck_run(entry["run_dir"], SimcheckConfig())
+        except RuntimeError as err:  # diverged, or Newton is not installed
+            entry["newton_error"] = str(err)
+        else:
+            entry["newton"] = record["summary"]
+            entry["unstable_newton"] = [o["node"] for o in record["objects"] if o["kind"] == "free" and not o["stable"]]
+            entry["disagreements"] = record.get("disagreements", [])
     return entry
 
 
-def summarise(scenes: list[dict[str, Any]], shake: bool) -> dict[str, Any]:
+def summarise(scenes: list[dict[str, Any]], shake: bool, newton: bool = False) -> dict[str, Any]:
     """The figures of one layout over ``scenes`` (one seed set, one preset): stable fraction over all free
     objects and the lowest scene's, under shake too with ``shake`` (over the scenes whose shaken check
     finished; ``shake_failed`` counts the others), t=0 penetration, fallen and escaped objects, seconds."""
@@ -156,20 +177,44 @@ def summarise(scenes: list[dict[str, Any]], shake: bool) -> dict[str, Any]:
             "escaped_shake": sum(s["shake"]["escaped"] for s in shaken),
             "shake_failed": len(done) - len(shaken),
         }
+    if newton:
+        checked = [s for s in done if "newton" in s]
+        newton_free = sum(s["newton"]["free"] for s in checked)
+        mujoco_free = sum(s["simcheck"]["free"] for s in checked)
+        out |= {
+            "stable_fraction_newton": (
+                round(sum(s["newton"]["stable"] for s in checked) / newton_free, 4) if newton_free else None
+            ),
+            # MuJoCo's over the same scenes, so the two columns compare like with like
+            "stable_fraction_mujoco_same": (
+                round(sum(s["simcheck"]["stable"] for s in checked) / mujoco_free, 4) if mujoco_free else None
+            ),
+            "disagreements": sum(len(s.get("disagreements", [])) for s in checked),
+            "newton_failed": len(done) - len(checked),
+            "newton_s_per_scene": (
+                round(float(np.mean([s["newton"]["seconds"] for s in checked])), 1) if checked else None
+            ),
+        }
     return out
 
 
 def run(
-    seeds: list[int], preset: str, work_dir: Path, held_out: list[int] | None = None, shake: bool = False
+    seeds: list[int],
+    preset: str,
+    work_dir: Path,
+    held_out: list[int] | None = None,
+    shake: bool = False,
+    newton: bool = False,
 ) -> dict[str, Any]:
     """Both layouts of every scene of ``preset`` (``all``: standard and cluttered) on the development
-    ``seeds`` and on the ``held_out`` seeds, checked calm and, with ``shake``, shaken; the summary has one
-    block per seed set (``seed_sets``), each with its seeds and the figures per preset and layout."""
+    ``seeds`` and on the ``held_out`` seeds, checked calm and, with ``shake``, shaken, and with ``newton``
+    in Newton too; the summary has one block per seed set (``seed_sets``), each with its seeds and the
+    figures per preset and layout."""
     sets = seed_sets(seeds, held_out)
     presets = ("standard", "cluttered") if preset == "all" else (preset,)
     config = ExportConfig(decomposition_cache=str(work_dir / "convex_cache"))
     scenes = [
-        measure_scene(seed_set, p, seed, layout, work_dir, config, shake)
+        measure_scene(seed_set, p, seed, layout, work_dir, config, shake, newton)
         for seed_set, set_seeds in sets.items()
         for p in presets
         for seed in set_seeds
@@ -181,7 +226,9 @@ def run(
         for p in presets:
             block[p] = {
                 layout: summarise(
-                    [s for s in scenes if (s["seed_set"], s["preset"], s["layout"]) == (seed_set, p, layout)], shake
+                    [s for s in scenes if (s["seed_set"], s["preset"], s["layout"]) == (seed_set, p, layout)],
+                    shake,
+                    newton,
                 )
                 for layout in LAYOUTS
             }
@@ -190,12 +237,14 @@ def run(
         "scenes": scenes,
         "summary": summary,
         "shake": shake,
+        "newton": newton,
         "aims": {
             "gt_stable": 0.99,
             "gt_penetration_m": 0.005,
             "pipeline_stable": 0.95,
             "pipeline_stable_per_scene": 0.9,
             "pipeline_penetration_m": 0.01,
+            "newton_vs_mujoco_stable": 0.1,
         },
     }
 
@@ -220,7 +269,7 @@ def table(result: dict[str, Any]) -> str:
     head = (
         f"{'seeds':<11} {'preset':<9} {'layout':<8} {'scenes':>6} {'free':>5} {'stable':>7} {'worst':>6} "
         f"{'shaken':>7} {'worst':>6} {'pen max':>8} {'pen mean':>9} {'fell':>5} {'escaped':>7} {'pieces':>7} "
-        f"{'dec s/obj':>9} {'export s':>9} {'sim s':>6}"
+        f"{'dec s/obj':>9} {'export s':>9} {'sim s':>6} {'newton':>7} {'mujoco':>7} {'differ':>6}"
     )
     lines = [f"sim bench, preset {result.get('preset')}: {sets}", head]
     for name, block in summary.items():
@@ -238,12 +287,15 @@ def table(result: dict[str, Any]) -> str:
                     f"{_cell(s['penetration_t0_max'], 8, 1000, 1, 'mm')} {_cell(s['penetration_t0_mean'], 9, 1000, 2, 'mm')} "
                     f"{s['fell_through']:>5} {s['escaped']:>7} {s['pieces_per_object']:>7.1f} "
                     f"{_cell(s['decompose_s_per_object'], 9, digits=1)} {s['export_s_per_scene']:>9.1f} "
-                    f"{s['simcheck_s_per_scene']:>6.2f}"
+                    f"{s['simcheck_s_per_scene']:>6.2f} {_cell(s.get('stable_fraction_newton'), 7)} "
+                    f"{_cell(s.get('stable_fraction_mujoco_same'), 7)} {s.get('disagreements', '-'):>6}"
                 )
     lines.append(
         "stable: calm, 2 s under gravity; shaken: the room shaken 1 s (peak 3 m/s^2) then 1 s settling"
         + ("" if result.get("shake") else " (not run: --shake)")
-        + "; worst: the lowest scene's"
+        + "; worst: the lowest scene's; newton: calm stable fraction in Newton (XPBD, scene.usda), mujoco: "
+        + "MuJoCo's over the same scenes, differ: objects stable in one engine only"
+        + ("" if result.get("newton") else " (not run: --newton)")
     )
     for s in result["scenes"]:
         where = f"  {s.get('seed_set', 'development')} {s['layout']} {s['preset']} seed {s['seed']}"
@@ -256,4 +308,11 @@ def table(result: dict[str, Any]) -> str:
             lines.append(f"{where}: unstable under shake {', '.join(s['unstable_shake'])}")
         if "shake_error" in s:
             lines.append(f"{where}: shaken check ERROR {s['shake_error'].splitlines()[0]}")
+        if "newton_error" in s:
+            lines.append(f"{where}: Newton check ERROR {s['newton_error'].splitlines()[0]}")
+        for d in s.get("disagreements", []):
+            lines.append(
+                f"{where}: {d['node']} stable in {'MuJoCo' if d['stable_mujoco'] else 'Newton'} only "
+                f"({d['drift_mujoco'] * 100:.1f} vs {d['drift_newton'] * 100:.1f} cm): {'; '.join(d['reasons'])}"
+            )
     return "\n".join(lines)

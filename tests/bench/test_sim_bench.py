@@ -170,3 +170,27 @@ def test_shake_check_shakes_without_replacing_the_calm_check(tmp_path):
     assert max(shaken_drift[n] - calm_drift[n] for n in calm_drift) > 0.005  # the shake moved something
     doc = json.loads((tmp_path / "sim/simcheck.json").read_text())
     assert doc["summary"]["shake"] is False and doc["summary"] == calm.summary.to_json()
+
+
+def test_newton_column_stands_beside_mujoco_over_the_same_scenes(tmp_path, fake_checks, monkeypatch):
+    from rescene_core.sim import newton_check
+
+    def newton_run(run_dir, config):  # Newton: one object fewer stable than MuJoCo per scene, seed 1 fails
+        seed = _seed_of(run_dir)
+        if seed == 1:
+            raise RuntimeError("the Newton simulation diverged")
+        record = _check(seed, shake=False).to_json()
+        record["summary"]["stable"] -= 1
+        differ = {"node": "obj_0_lamp", "stable_mujoco": True, "stable_newton": False, "drift_mujoco": 0.0}
+        return record | {"disagreements": [differ | {"drift_newton": 0.03, "reasons": ["mass: MJCF 1, USD 2"]}]}
+
+    monkeypatch.setattr(newton_check, "newton_simcheck_run", newton_run)
+    result = sim.run([0, 1], "standard", tmp_path, newton=True)
+    block = result["summary"]["development"]["standard"]["pipeline"]
+    assert block["stable_fraction_newton"] == 0.9 and block["stable_fraction_mujoco_same"] == 1.0
+    assert block["stable_fraction"] == 1.0 and block["newton_failed"] == 1 and block["disagreements"] == 1
+    text = sim.table({"preset": "standard", **result})
+    row = next(r for r in map(str.split, text.splitlines()) if r[:3] == ["development", "standard", "pipeline"])
+    assert row[-3:] == ["0.900", "1.000", "1"]
+    assert "seed 1: Newton check ERROR the Newton simulation diverged" in text
+    assert "seed 0: obj_0_lamp stable in MuJoCo only (0.0 vs 3.0 cm): mass: MJCF 1, USD 2" in text
