@@ -85,6 +85,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             console.print(f"vqa: {vqa['questions']} questions over {len(vqa['views'])} rendered views")
         except VqaInputError as err:
             console.print(f"vqa: skipped ({err})")
+    if run.scene_usda.exists() and run.simcheck.exists():
+        _newton_check(run_dir, console)
     print("where to look:")
     looks = [
         ("scene (open in any glTF viewer)", run.scene_glb),
@@ -93,6 +95,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         ("USD stage with physics (Isaac Sim, usdview, Blender)", run.scene_usda),
         ("export report (every guessed value, collider fallbacks)", run.export_report),
         ("physics check (stable fraction, t=0 penetration, drift)", run.simcheck),
+        ("the same check in Newton on the USD, with where the engines differ", run.simcheck_newton),
         ("evaluation report", run.report_md),
         ("evaluation report, interactive (open in a browser)", run.report_html),
         ("run log (open in Foxglove Studio; `rescene log` summarises it)", run.run_log),
@@ -104,6 +107,27 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         mark = "" if path.exists() else "  (not written: see the flow state above)"
         print(f"  {what:64s} {path}{mark}")
     return 0 if state.is_completed() else 1
+
+
+def _newton_check(run_dir: Path, console: Console) -> None:
+    """The second engine on the USD (the `newton` extra), compared with the flow's MuJoCo check."""
+    from rescene_core.sim.newton_check import NewtonUnavailable, newton_simcheck_run
+
+    try:
+        with console.status("checking scene.usda in Newton, the second physics engine"):
+            record = newton_simcheck_run(run_dir)
+    except NewtonUnavailable as err:
+        console.print(f"newton: skipped ({err})")
+        return
+    except RuntimeError as err:  # the Newton simulation diverged
+        console.print(f"newton: failed ({err})")
+        return
+    s = record["summary"]
+    differ = record.get("disagreements", [])
+    console.print(
+        f"newton: {s['stable']}/{s['free']} free objects stable in Newton; the engines differ on {len(differ)}"
+        + (f" ({', '.join(d['node'] for d in differ)})" if differ else "")
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
