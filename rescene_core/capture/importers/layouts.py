@@ -148,9 +148,9 @@ def write_scannet(
 
     if threads > 1:
         with ThreadPoolExecutor(max_workers=threads) as pool:
-            list(pool.map(frame, range(len(arrays.rgb))))
+            list(pool.map(frame, range(arrays.rgb.shape[0])))
     else:
-        for t in range(len(arrays.rgb)):
+        for t in range(arrays.rgb.shape[0]):
             frame(t)
     K4 = np.eye(4)
     K4[:3, :3] = np.asarray(arrays.K[0])

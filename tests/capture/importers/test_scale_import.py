@@ -17,3 +17,15 @@ def test_the_import_child_reports_seconds_steps_and_rss(tmp_path, tiny_scene):
     assert all(v["seconds"] >= 0 for v in got["steps"].values())
     assert 0.05 < got["peak_rss_gb"] < 6.0
     assert (tmp_path / "imported.zarr").is_dir()
+
+
+def test_an_opened_capture_is_written_as_from_memory(tmp_path, tiny_scene):
+    from rescene_core.capture import open_capture
+    from rescene_core.capture.format import write_capture
+
+    path = write_capture(tmp_path / "tiny.zarr", tiny_scene.arrays)
+    from_memory = write_scannet(tiny_scene.arrays, tmp_path / "a", threads=1)
+    from_disk = write_scannet(open_capture(path, validate=False), tmp_path / "b", threads=2)
+    files = sorted(p.relative_to(from_memory) for p in from_memory.rglob("*") if p.is_file())
+    assert files and files == sorted(p.relative_to(from_disk) for p in from_disk.rglob("*") if p.is_file())
+    assert all((from_memory / f).read_bytes() == (from_disk / f).read_bytes() for f in files)
