@@ -4,8 +4,9 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 RESCENE := $(VENV)/bin/rescene
 STAMP := $(VENV)/.installed
-DEBIAN_PACKAGES := libusb-1.0-0 libgomp1 libgl1 nodejs chromium
-# nodejs runs the Khronos glTF validator; chromium is the headless browser the report tests drive
+DEBIAN_PACKAGES := libusb-1.0-0 libgomp1 libgl1 nodejs chromium postgresql
+# nodejs runs the Khronos glTF validator; chromium is the headless browser the report tests drive;
+# postgresql is the database of a Prefect server that several workers share (make server-postgres, make drills)
 DEMO_DIR ?= demo
 PRESET ?= standard
 SEED ?= 0
@@ -13,9 +14,11 @@ SEEDS ?= 0-4
 BENCH_DIR ?= bench
 PREFECT_API_URL ?= http://127.0.0.1:4200/api
 POOL ?= rescene-local
+PG_DIR ?= $(abspath .postgres)
+PG_PORT ?= 5432
 
 .DEFAULT_GOAL := help
-.PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server worker deploy deploy-script clean
+.PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server server-postgres postgres-stop worker deploy deploy-script drills clean
 
 help: ## list the targets
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -78,6 +81,14 @@ bench: $(STAMP) ## run every benchmark suite (SEEDS=0-4) into $(BENCH_DIR)/
 server: $(STAMP) ## start a Prefect server (SQLite; PREFECT_API_DATABASE_CONNECTION_URL for Postgres)
 	$(VENV)/bin/prefect server start --host 127.0.0.1
 
+server-postgres: $(STAMP) ## PostgreSQL (Debian's) in PG_DIR on PG_PORT, then a Prefect server on it (several workers)
+	$(PY) -m rescene_core.ops.postgres start --dir $(PG_DIR) --port $(PG_PORT)
+	PREFECT_API_DATABASE_CONNECTION_URL=$$($(PY) -m rescene_core.ops.postgres url --port $(PG_PORT)) \
+	  $(VENV)/bin/prefect server start --host 127.0.0.1
+
+postgres-stop: ## stop the PostgreSQL that make server-postgres started
+	$(PY) -m rescene_core.ops.postgres stop --dir $(PG_DIR)
+
 worker: $(STAMP) ## start a process worker on the local pool
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect worker start --pool $(POOL)
@@ -88,6 +99,9 @@ deploy: $(STAMP) ## register the rescene/scene and split deployments with the se
 
 deploy-script: $(STAMP) ## the same deployments through the Python API (fallback for make deploy)
 	PREFECT_API_URL=$(PREFECT_API_URL) $(PY) deployments/deploy.py --prefect-file deployments/prefect.yaml
+
+drills: $(STAMP) ## the fault drills over PostgreSQL and two workers (kill -9, server restart, a split of six; minutes)
+	RESCENE_DRILLS=1 PREFECT_SERVER_ANALYTICS_ENABLED=false $(TEST_BYTECODE) $(PY) -m pytest tests/ops -m drill --durations=10
 
 clean: ## remove demo and benchmark outputs (keeps .venv)
 	rm -rf $(DEMO_DIR) $(BENCH_DIR) .pytest_cache
