@@ -1,33 +1,45 @@
 """The label-free front end: instance masks for RGB-D scans that have none.
 
-1. TSDF fusion of every frame (Open3D's tensor ``VoxelBlockGrid``) and its surface mesh.
-2. Room structure removed: the floor (z near 0 in the aligned frame), a ceiling (a large horizontal
-   plane above the cameras) and walls (large vertical planes with almost nothing behind them). A vertex
-   joins a plane only if it lies on it and its normal agrees, so the side of a cabinet against a wall
-   stays with the cabinet.
-3. What is left is clustered (DBSCAN on the thinned vertices); clusters with too few points or smaller
-   than a minimum extent are dropped.
-4. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
+1. TSDF fusion of every frame (Open3D's tensor ``VoxelBlockGrid``, depth and colour thinned by
+   ``tsdf_stride`` first) and its surface mesh with vertex colours.
+2. Room structure: the floor (z near 0 in the aligned frame), a ceiling (a large horizontal plane above the
+   cameras) and walls (large vertical planes with almost nothing behind them). A vertex joins a plane only
+   if it lies on it and its normal agrees, so the side of a cabinet against a wall stays with the cabinet.
+3. Superpoints (``rescene_core.segment.superpoints``): the vertices off the floor and ceiling, thinned to
+   ``superpoint_voxel``, are over-segmented by Felzenszwalb-Huttenlocher on normals and colour, as
+   ScanNet's mesh segmentation does.
+4. Region merging (``merge_superpoints``): touching superpoints join unless their contact is a concave
+   crease across a change of colour (a lamp standing on a nightstand, a chair seat meeting a table's
+   edge), a strong change of colour, or a support contact (a body standing on a horizontal top and
+   narrower than it: what spans the top is its own back or headboard). Wall superpoints stay wall unless
+   their colour differs from the wall's or they stand proud of it: a picture, a mirror or a TV flush with
+   a wall becomes an object. Regions too small, too large or that are slivers of a wall are dropped.
+5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
-Every segment is labelled ``object`` unless an open_clip checkpoint is given: then the best views of each
-segment are classified zero-shot over a vocabulary (``rescene_core.segment.labels``). The result says
-which segmenter ran (``geometric`` or ``geometric+clip``).
+``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
+masks. Every segment is labelled ``object`` unless an open_clip checkpoint is given: then the best views of
+each segment are classified zero-shot over a vocabulary (``rescene_core.segment.labels``). The result says
+which segmenter ran (``geometric``, ``masks``, with ``+clip`` when labelled).
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from rescene_core.render.raycast import RayCaster
 from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.labels import zero_shot_labels
 from rescene_core.segment.project import labelled_meshes, render_masks
+from rescene_core.segment.superpoints import SuperpointGraph, edge_weights, felzenszwalb, point_graph, superpoint_graph
 
 
 class SegmentConfig(BaseModel):
@@ -37,6 +49,11 @@ class SegmentConfig(BaseModel):
 
     tsdf_voxel: float = 0.02
     """TSDF voxel size (m)."""
+    tsdf_stride: int = 2
+    """Every n-th pixel of depth and colour is fused (a 2 cm voxel is larger than a pixel's footprint at 2 m
+    on a 640-pixel-wide frame)..."""
+    tsdf_min_width: int = 320
+    """... as long as at least this many pixels of a row remain (small frames are fused whole)."""
     sdf_trunc_voxels: float = 4.0
     """TSDF truncation distance in voxels."""
     tsdf_block_count: int = 20000
@@ -59,22 +76,54 @@ class SegmentConfig(BaseModel):
     """Largest tilt of a wall normal from horizontal, and of a ceiling normal from vertical (deg)."""
     wall_min_extent: float = 1.0
     """Least width and height of a wall's inliers (m)."""
+    wall_shadow: float = 0.4
+    """A vertical plane parallel to a wall and less than this in front of it is not a wall (m)."""
+    wall_bin: float = 0.1
+    """Bin along a wall plane in which its inliers are counted to find the wall's own stretch (m)."""
     wall_max_behind: float = 0.05
     """Largest share of the scene's points behind a wall plane (seen from the cameras)."""
     ceiling_min_above_cameras: float = 0.1
     """A ceiling lies at least this far above the highest camera (m)."""
-    cluster_voxel: float = 0.03
-    """Voxel size the object vertices are thinned to before clustering (m)."""
-    cluster_eps: float = 0.06
-    """DBSCAN neighbourhood radius (m)."""
-    cluster_min_points: int = 8
-    """DBSCAN core-point neighbour count."""
+    plane_voxel: float = 0.05
+    """Voxel size the points are thinned to for the wall and ceiling search (m)."""
+    superpoint_voxel: float = 0.025
+    """Voxel size of the points that are over-segmented into superpoints (m)."""
+    graph_radius_voxels: float = 1.75
+    """Points closer than this many ``superpoint_voxel`` share a graph edge."""
+    fh_k: float = 0.5
+    """Felzenszwalb-Huttenlocher scale: larger gives larger superpoints."""
+    fh_colour_weight: float = 1.0
+    """Weight of the RGB step (0-1) against the normal bend (1 - cos) in an edge's weight."""
+    fh_min_size: int = 20
+    """Superpoints with fewer points join their cheapest neighbour."""
+    min_contacts: int = 3
+    """Touching superpoints with fewer graph edges between them are not joined (a bridge of noise)."""
+    concave_fraction: float = 0.65
+    """Share of concave edges that makes a contact a crease..."""
+    concave_colour_step: float = 0.0
+    """... that separates two superpoints when their mean colours differ by at least this (RGB distance / sqrt 3)."""
+    colour_cut: float = 0.22
+    """Touching superpoints whose mean colours differ by this much are never joined (RGB distance / sqrt 3)."""
+    flush_colour_step: float = 0.12
+    """A superpoint on a wall whose mean colour differs from the wall's by this much is a flush candidate..."""
+    flush_offset: float = 0.012
+    """... as is one standing this far proud of the wall plane on average (m); a region of candidates that
+    stands this far proud (median) is a flush object (a TV, a mirror in its frame)..."""
+    flush_edge_step: float = 0.2
+    """... and, over a whole region on a wall, the mean colour step across its outline against the wall
+    (RGB distance / sqrt 3) that makes it a picture or a poster, unless it stands ``flush_offset`` proud."""
+    flush_min_height: float = 0.3
+    """A flush object hangs at least this far above the floor and below the ceiling (a door does not) (m)."""
+    flush_max_extent: float = 2.5
+    """A flush object is smaller than this in its largest dimension (m); larger ones are the wall."""
+    leg_width: float = 0.12
+    """An upright part narrower than this (m) is a leg or a post of what it touches."""
     min_segment_points: int = 60
-    """Fewest thinned points of an object segment."""
+    """Fewest thinned points of an object segment; smaller regions join their most touching neighbour."""
     min_segment_extent: float = 0.1
     """Smallest largest-dimension of an object segment (m)."""
     max_segment_extent: float = 4.0
-    """Largest largest-dimension of an object segment; bigger clusters are leftovers of the room (m)."""
+    """Largest largest-dimension of an object segment; bigger regions are leftovers of the room (m)."""
     depth_abs_tolerance: float = 0.05
     """Mask depth test: absolute tolerance between rendered and measured depth (m)."""
     depth_rel_tolerance: float = 0.05
@@ -82,15 +131,17 @@ class SegmentConfig(BaseModel):
     min_mask_pixels: int = 30
     """Per frame, a segment's mask with fewer pixels is cleared."""
     support_min_height: float = 0.25
-    """A horizontal top higher than this can carry objects that are split off its cluster (m)."""
+    """A horizontal top higher than this can carry objects that are split off it (m)."""
+    support_up_share: float = 0.7
+    """Share of a superpoint's normals within 15 degrees of up that makes it a horizontal top."""
     support_span_fraction: float = 0.85
-    """A part above a top that spans this fraction of the top's width or depth is the piece's own back
+    """A body on a top that spans this fraction of the top's width or depth is the piece's own back
     (a chair's or sofa's back, a headboard) and stays with it."""
-    support_band: float = 0.03
-    """Points more than this above a support top stand on it (m)."""
+    support_band: float = 0.04
+    """A body whose lowest point is within this of a top's height, or above it, stands on it (m)."""
     structure_band: float = 0.06
     """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
-    sliver_thickness: float = 0.03
+    sliver_thickness: float = 0.05
     """... when it is also thinner than this across the plane (5-95 percentile), unlike a monitor (m)."""
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
@@ -131,14 +182,18 @@ def tsdf_mesh(
         block_count=cfg.tsdf_block_count,
         device=core.Device("CPU:0"),
     )
+    step = max(min(int(cfg.tsdf_stride), depth.shape[2] // max(cfg.tsdf_min_width, 1)), 1)
     for t in range(len(depth)):
         k = np.asarray(K[t], np.float64).copy()
-        k[0, 2] -= 0.5  # Open3D puts pixel centres at integers; the project casts pixel u through u + 0.5
-        k[1, 2] -= 0.5
+        # Open3D puts pixel centres at integers; the project casts pixel u through u + 0.5. Pixel i of the
+        # strided image is pixel step * i of the full one, whose centre is at step * i + 0.5.
+        k[0, 2] = (k[0, 2] - 0.5) / step
+        k[1, 2] = (k[1, 2] - 0.5) / step
+        k[:2, :2] /= step
         intr = core.Tensor(k, core.float64)
         cam_from_world = core.Tensor(np.linalg.inv(np.asarray(world_from_cam[t], np.float64)), core.float64)
-        d = o3d.t.geometry.Image(core.Tensor(np.ascontiguousarray(depth[t], np.float32)))
-        c = o3d.t.geometry.Image(core.Tensor(np.ascontiguousarray(rgb[t], np.float32) / 255.0))
+        d = o3d.t.geometry.Image(core.Tensor(np.ascontiguousarray(depth[t][::step, ::step], np.float32)))
+        c = o3d.t.geometry.Image(core.Tensor(np.ascontiguousarray(rgb[t][::step, ::step], np.float32) / 255.0))
         blocks = vbg.compute_unique_block_coordinates(
             d, intr, cam_from_world, 1.0, cfg.depth_trunc, cfg.sdf_trunc_voxels
         )
@@ -147,6 +202,33 @@ def tsdf_mesh(
     mesh.compute_vertex_normals()
     colors = np.asarray(mesh.vertex_colors) if mesh.has_vertex_colors() else np.zeros((len(mesh.vertices), 3))
     return np.asarray(mesh.vertices), np.asarray(mesh.triangles, np.int64), np.asarray(mesh.vertex_normals), colors
+
+
+def _wall_span(along: NDArray, bin_size: float) -> tuple[float, float]:
+    """The wall's own stretch along its plane (m): the run of ``bin_size`` bins holding the most of a plane's
+    inliers ``along`` [k] (positions along the wall; a bin is occupied with 5 % of the fullest bin's
+    count), with gaps up to 0.8 m bridged (a wardrobe hides the wall behind it). Furniture faces that happen
+    to be coplanar with the wall elsewhere in the room fall outside."""
+    if len(along) == 0:
+        return 0.0, 0.0
+    edges = np.arange(along.min(), along.max() + 2 * bin_size, bin_size)
+    hist, edges = np.histogram(along, bins=edges)
+    occupied = hist >= 0.05 * hist.max()
+    best, best_pts, start, gap = (0, 0), -1, None, 0
+    max_gap = int(round(0.8 / bin_size))
+    for i, occ in enumerate(np.r_[occupied, np.zeros(max_gap + 1, bool)]):
+        if occ:
+            start = i if start is None else start
+            gap = 0
+            end = i
+        elif start is not None:
+            gap += 1
+            if gap > max_gap:
+                pts = int(hist[start : end + 1].sum())
+                if pts > best_pts:
+                    best, best_pts = (start, end), pts
+                start, gap = None, 0
+    return float(edges[best[0]]), float(edges[best[1] + 1])
 
 
 def _structure(
@@ -165,11 +247,11 @@ def _structure(
     centre = cams.mean(axis=0) if len(cams) else verts.mean(axis=0)
     free = labels == 0
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(verts[free]))
-    pcd = pcd.voxel_down_sample(cfg.cluster_voxel)
+    pcd = pcd.voxel_down_sample(cfg.plane_voxel)
     thin = np.asarray(pcd.points)
     rest = pcd
     next_id = 2
-    walls: list[tuple[NDArray, float]] = []
+    walls: list[tuple[NDArray, float, NDArray, float, float]] = []
     ceiling: tuple[NDArray, float] | None = None
     for _ in range(cfg.max_planes):
         if len(rest.points) < 200:
@@ -186,20 +268,39 @@ def _structure(
         if abs(n[2]) < sin_v:
             horiz = np.cross(n, [0.0, 0.0, 1.0])
             horiz /= np.linalg.norm(horiz)
-            width = float(np.ptp(pts @ horiz))
-            height = float(np.ptp(pts[:, 2]))
-            behind = float(((thin @ n + d) < -cfg.plane_distance * 2).mean()) if len(thin) else 1.0
-            if width >= cfg.wall_min_extent and height >= cfg.wall_min_extent and behind <= cfg.wall_max_behind:
-                walls.append((n, d))
+            lo, hi = _wall_span(pts @ horiz, cfg.wall_bin)
+            on_wall = (pts @ horiz >= lo) & (pts @ horiz <= hi)
+            height = float(np.ptp(pts[on_wall, 2]))
+            # only what lies behind the wall's own span counts: in an L-shaped room the other arm lies
+            # behind the plane of an inner wall, beside the wall itself
+            # (kept 2 bins inside its ends: the perpendicular wall at an inner corner stands right there)
+            within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
+            side = thin[within] @ n + d
+            if (side < -cfg.plane_distance * 2).sum() > (side > cfg.plane_distance * 2).sum():
+                # the room lies on the other side (the cameras' centre can lie outside an L-shaped room's arm)
+                n, d, horiz, side = -n, -d, -horiz, -side
+                lo, hi = -hi, -lo
+            behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
+            # a face parallel to a wall just in front of it is furniture against the wall (a wardrobe's front)
+            shadow = any(n @ w[0] > 0.98 and 0 < w[1] - d < cfg.wall_shadow for w in walls)
+            if (
+                hi - lo >= cfg.wall_min_extent
+                and height >= cfg.wall_min_extent
+                and behind <= cfg.wall_max_behind
+                and not shadow
+            ):
+                walls.append((n, d, horiz, lo, hi))
         elif abs(n[2]) > np.cos(np.radians(cfg.vertical_tolerance_deg)):
             z = float(np.median(pts[:, 2]))
             if z > top_cam + cfg.ceiling_min_above_cameras and (ceiling is None or z > -ceiling[1]):
                 ceiling = (np.array([0.0, 0.0, -1.0]), z)
-    for n, d in walls:
+    for n, d, horiz, lo, hi in walls:
+        along = verts @ horiz
         on = free & (np.abs(verts @ n + d) < cfg.plane_distance) & (np.abs(normals @ n) > cos_n)
+        on &= (along >= lo - cfg.plane_distance) & (along <= hi + cfg.plane_distance)
         labels[on] = next_id
         planes.append({"kind": "wall", "id": next_id, "normal": n.round(4).tolist(), "offset": round(float(d), 4),
-                       "vertices": int(on.sum())})  # fmt: skip
+                       "span": [round(float(lo), 4), round(float(hi), 4)], "vertices": int(on.sum())})  # fmt: skip
         free &= ~on
         next_id += 1
     if ceiling is not None:
@@ -211,131 +312,356 @@ def _structure(
     return labels, planes
 
 
-def _dbscan(points: NDArray, eps: float, min_points: int) -> NDArray[np.int64]:
+@dataclass
+class ScanPoints:
+    """The fused surface off the floor and ceiling, thinned, with its superpoints.
+
+    points, normals (unit), colours (RGB in [0, 1]): [n, 3], world frame. wall: [n] id of the wall plane the
+    point lies on (0: none). vertex_point: [v] the point each mesh vertex maps to (-1: none, e.g. floor).
+    edges: [e, 2] the point graph. graph: the superpoints and their contacts."""
+
+    points: NDArray[np.float64]
+    normals: NDArray[np.float64]
+    colours: NDArray[np.float64]
+    wall: NDArray[np.int64]
+    vertex_point: NDArray[np.int64]
+    edges: NDArray[np.int64]
+    graph: SuperpointGraph
+
+
+def scan_points(
+    verts: NDArray, normals: NDArray, colours: NDArray, struct: NDArray[np.int64], planes: list[dict[str, Any]],
+    cfg: SegmentConfig,
+) -> ScanPoints:  # fmt: skip
+    """Thin the free and wall vertices (each wall on its own, so a point is either on a wall or not) to
+    ``superpoint_voxel`` and over-segment them into superpoints (``rescene_core.segment.superpoints``)."""
     import open3d as o3d
 
-    if len(points) == 0:
-        return np.zeros(0, np.int64)
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    return np.asarray(pcd.cluster_dbscan(eps, min_points, print_progress=False), np.int64)
+    groups = [0] + [int(p["id"]) for p in planes if p["kind"] == "wall"]
+    pts, nrm, col, wall = [], [], [], []
+    vertex_point = np.full(len(verts), -1, np.int64)
+    offset = 0
+    for gid in groups:
+        sel = np.flatnonzero(struct == gid)
+        if len(sel) == 0:
+            continue
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(verts[sel]))
+        pcd.normals = o3d.utility.Vector3dVector(normals[sel])
+        pcd.colors = o3d.utility.Vector3dVector(np.clip(colours[sel], 0.0, 1.0))
+        pcd = pcd.voxel_down_sample(cfg.superpoint_voxel)
+        p = np.asarray(pcd.points)
+        near = cKDTree(p).query(verts[sel], k=1)[1]
+        vertex_point[sel] = offset + near
+        pts.append(p)
+        nrm.append(np.asarray(pcd.normals))
+        col.append(np.asarray(pcd.colors))
+        wall.append(np.full(len(p), gid, np.int64))
+        offset += len(p)
+    if not pts:
+        raise SegmentError("nothing is left off the floor and ceiling to segment (the scan shows no objects or walls)")
+    P, N, C, Wl = np.concatenate(pts), np.concatenate(nrm), np.concatenate(col), np.concatenate(wall)
+    N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-9)
+    edges = point_graph(P, cfg.superpoint_voxel * cfg.graph_radius_voxels)
+    weights, concave, step = edge_weights(P, N, C, edges, cfg.fh_colour_weight)
+    label = felzenszwalb(len(P), edges, weights, cfg.fh_k, cfg.fh_min_size)
+    graph = superpoint_graph(P, N, C, label, edges, concave, step)
+    return ScanPoints(P, N, C, Wl, vertex_point, edges, graph)
 
 
-def _split_on_support(pts: NDArray, nrm: NDArray, cfg: SegmentConfig) -> list[NDArray[np.int64]]:
-    """Indices of the parts of one cluster: the support (a table and what is under its top) first, then
-    each group of points standing on its top surface that is narrower than the top both ways (what spans
-    the top is the piece's own back). A cluster with no large horizontal top is one part."""
-    up = nrm[:, 2] > np.cos(np.radians(cfg.vertical_tolerance_deg))
-    high = up & (pts[:, 2] > cfg.support_min_height)
-    if high.sum() < cfg.min_segment_points:
-        return [np.arange(len(pts))]
-    z = pts[high, 2]
-    bins = np.arange(z.min(), z.max() + 2 * cfg.cluster_voxel, cfg.cluster_voxel)
-    hist, edges = np.histogram(z, bins=bins)
-    k = int(np.argmax(hist))
-    if hist[k] < cfg.min_segment_points:
-        return [np.arange(len(pts))]
-    top = float(edges[k] + edges[k + 1]) / 2
-    above = np.flatnonzero(pts[:, 2] > top + cfg.support_band)
-    if len(above) < cfg.min_segment_points:
-        return [np.arange(len(pts))]
-    lab = _dbscan(pts[above], cfg.cluster_eps, cfg.cluster_min_points)
-    on_top = up & (np.abs(pts[:, 2] - top) <= cfg.support_band)
-    top_span = np.ptp(pts[on_top, :2], axis=0) if on_top.sum() >= 2 else np.zeros(2)
-    parts, taken = [], np.zeros(len(pts), bool)
-    for c in range(lab.max() + 1 if len(lab) else 0):
-        idx = above[lab == c]
-        spans = np.ptp(pts[idx, :2], axis=0) >= cfg.support_span_fraction * top_span
-        if len(idx) >= cfg.min_segment_points and not spans.any():
-            parts.append(idx)
-            taken[idx] = True
-    if not parts:
-        return [np.arange(len(pts))]
-    return [np.flatnonzero(~taken)] + parts
+def _components(n: int, pairs: NDArray[np.int64], keep: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Connected component [n] of the graph with the ``keep`` pairs as edges."""
+    e = pairs[keep]
+    adj = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    return np.asarray(connected_components(adj, directed=False)[1], np.int64)
 
 
-def _clusters(
-    verts: NDArray, normals: NDArray, free: NDArray[np.bool_], cfg: SegmentConfig
-) -> tuple[NDArray[np.int64], dict]:
-    """Cluster label per vertex (0 = none, 1..k) of the free vertices, and counts for the report.
-
-    Objects on a table touch it, so a cluster with a large horizontal top is split: what stands on the
-    top becomes its own segment (``_split_on_support``)."""
-    import open3d as o3d
-
-    out = np.zeros(len(verts), np.int64)
-    idx = np.flatnonzero(free)
-    stats = {"clusters": 0, "kept": 0, "split_off_supports": 0, "too_small": 0, "too_large": 0, "noise_points": 0}
-    if len(idx) < cfg.min_segment_points:
-        return out, stats
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(verts[idx]))
-    pcd.normals = o3d.utility.Vector3dVector(normals[idx])
-    pcd = pcd.voxel_down_sample(cfg.cluster_voxel)
-    thin = np.asarray(pcd.points)
-    tn = np.asarray(pcd.normals)
-    tn = tn / np.maximum(np.linalg.norm(tn, axis=1, keepdims=True), 1e-9)
-    lab = _dbscan(thin, cfg.cluster_eps, cfg.cluster_min_points)
-    stats["noise_points"] = int((lab < 0).sum())
-    seg = np.zeros(len(thin), np.int64)
-    nxt = 1
-    groups = [np.flatnonzero(lab == c) for c in range(lab.max() + 1 if len(lab) else 0)]
-    stats["clusters"] = len(groups)
-    while groups:
-        members = groups.pop()
-        ext = float(np.ptp(thin[members], axis=0).max())
-        if ext > cfg.max_segment_extent and len(members) >= 2 * cfg.min_segment_points:
-            # a cluster bigger than furniture is several objects bridged by a few points: cluster it tighter
-            sub = _dbscan(thin[members], cfg.cluster_eps * 0.5, cfg.cluster_min_points)
-            if sub.max(initial=-1) >= 1:
-                stats["resplit"] = stats.get("resplit", 0) + 1
-                groups += [members[sub == c] for c in range(sub.max() + 1)]
-                continue
-        parts = _split_on_support(thin[members], tn[members], cfg)
-        stats["split_off_supports"] += len(parts) - 1
-        for part in parts:
-            pts = thin[members[part]]
-            ext = float(np.ptp(pts, axis=0).max()) if len(pts) else 0.0
-            if len(pts) < cfg.min_segment_points or ext < cfg.min_segment_extent:
-                stats["too_small"] += 1
-                continue
-            if ext > cfg.max_segment_extent:
-                stats["too_large"] += 1
-                continue
-            seg[members[part]] = nxt
-            nxt += 1
-    stats["kept"] = nxt - 1
-    dist, near = cKDTree(thin).query(verts[idx], k=1, distance_upper_bound=cfg.cluster_voxel * 1.5)
-    ok = np.isfinite(dist)
-    out[idx[ok]] = seg[near[ok]]
-    return out, stats
+def wall_superpoints(
+    sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig
+) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Per superpoint: the wall it lies on (0: none; the wall of most of its points) and whether it is a
+    flush object on that wall (its colour differs from the wall's, or it stands proud of the plane)."""
+    g = sp.graph
+    n = g.size
+    on = np.bincount(g.label, (sp.wall > 0).astype(float), n) / np.maximum(g.count, 1)
+    which = np.zeros(n, np.int64)
+    if (sp.wall > 0).any():
+        key = g.label[sp.wall > 0] * (int(sp.wall.max()) + 1) + sp.wall[sp.wall > 0]
+        uk, cnt = np.unique(key, return_counts=True)
+        order = np.lexsort((-cnt, uk // (int(sp.wall.max()) + 1)))
+        first_sp = uk[order] // (int(sp.wall.max()) + 1)
+        first = np.r_[True, first_sp[1:] != first_sp[:-1]] if len(first_sp) else np.zeros(0, bool)
+        which[first_sp[first]] = uk[order][first] % (int(sp.wall.max()) + 1)
+    which[on < 0.5] = 0
+    flush = np.zeros(n, bool)
+    extent = (g.hi - g.lo).max(axis=1)
+    for plane in planes:
+        if plane["kind"] != "wall":
+            continue
+        mine = sp.wall == plane["id"]
+        if not mine.any():
+            continue
+        wall_colour = np.median(sp.colours[mine], axis=0)
+        proud = np.bincount(g.label[mine], sp.points[mine] @ np.asarray(plane["normal"]) + plane["offset"], n)
+        proud = proud / np.maximum(np.bincount(g.label[mine], minlength=n), 1)
+        step = np.linalg.norm(g.colour - wall_colour, axis=1) / np.sqrt(3.0)
+        cand = (which == plane["id"]) & ((step >= cfg.flush_colour_step) | (proud >= cfg.flush_offset))
+        flush |= cand & (extent <= cfg.flush_max_extent)
+    return which, flush
 
 
-def _absorb_structure(
-    verts: NDArray,
-    struct: NDArray[np.int64],
-    clusters: NDArray[np.int64],
+def _support_cut(
+    g: SuperpointGraph, a: NDArray[np.int64], b: NDArray[np.int64], cfg: SegmentConfig
+) -> NDArray[np.bool_]:
+    """Whether superpoint b stands on a (a is a horizontal top above ``support_min_height`` and b rises
+    from its height) and is narrower than it both ways (what spans the top is the piece's own back)."""
+    top_z = g.centroid[a, 2]
+    is_top = (g.up[a] >= cfg.support_up_share) & (top_z >= cfg.support_min_height)
+    rises = (g.lo[b, 2] >= top_z - cfg.support_band) & (g.centroid[b, 2] > top_z + cfg.support_band)
+    span_top = g.hi[a, :2] - g.lo[a, :2]
+    span_b = g.hi[b, :2] - g.lo[b, :2]
+    spans = (span_b >= cfg.support_span_fraction * span_top).any(axis=1)
+    return is_top & rises & ~spans
+
+
+def merge_superpoints(
+    sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig
+) -> tuple[NDArray[np.int64], NDArray[np.int64], dict[str, Any]]:
+    """Object region [s] of each superpoint (0: none) and its wall [s] (0: none), from geometry and colour
+    alone (see the module docstring), with counts for the report."""
+    g = sp.graph
+    n = g.size
+    which, flush = wall_superpoints(sp, planes, cfg)
+    free = (which == 0) | flush
+    a, b = g.pairs[:, 0], g.pairs[:, 1]
+    crease = g.concave / np.maximum(g.contacts, 1) >= cfg.concave_fraction
+    colour = np.linalg.norm(g.colour[a] - g.colour[b], axis=1) / np.sqrt(3.0)
+    support = _support_cut(g, a, b, cfg) | _support_cut(g, b, a, cfg)
+    join = free[a] & free[b] & (g.contacts >= cfg.min_contacts)
+    cut_crease = join & crease & (colour >= cfg.concave_colour_step)
+    cut_colour = join & (colour >= cfg.colour_cut)
+    cut_support = join & support
+    join &= ~(cut_crease | cut_colour | cut_support)
+    comp = _components(n, g.pairs, join)
+    region = np.where(free, comp + 1, 0)
+    stats = {
+        "superpoints": int(n),
+        "contacts": int(len(g.pairs)),
+        "cut_crease": int(cut_crease.sum()),
+        "cut_colour": int(cut_colour.sum()),
+        "cut_support": int(cut_support.sum()),
+        "flush_superpoints": int(flush.sum()),
+    }
+    region = _absorb_small(g, region, cfg)
+    region, drop = _filter_regions(sp, region, which, planes, cfg)
+    stats.update(drop)
+    return region, which, stats
+
+
+def _absorb_small(g: SuperpointGraph, region: NDArray[np.int64], cfg: SegmentConfig) -> NDArray[np.int64]:
+    """Regions with fewer than ``min_segment_points`` points, and thin upright parts (legs, posts: narrower
+    than ``leg_width`` and twice as tall as wide), join the touching region they share the most contacts
+    with: the leg cut off at the crease under a table's top goes back to the table."""
+    region = region.copy()
+    for _ in range(3):
+        n = int(region.max()) + 1
+        pts = np.bincount(region, g.count, n)
+        lo = np.full((n, 3), np.inf)
+        hi = np.full((n, 3), -np.inf)
+        np.minimum.at(lo, region, g.lo)
+        np.maximum.at(hi, region, g.hi)
+        width = (hi[:, :2] - lo[:, :2]).max(axis=1)
+        thin = (width <= cfg.leg_width) & (hi[:, 2] - lo[:, 2] >= 2 * width)
+        ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+        ok = (ra > 0) & (rb > 0) & (ra != rb)
+        if not ok.any():
+            break
+        src = np.r_[ra[ok], rb[ok]]
+        dst = np.r_[rb[ok], ra[ok]]
+        w = np.r_[g.contacts[ok], g.contacts[ok]]
+        small = (pts[src] < cfg.min_segment_points) | (thin[src] & ~thin[dst])
+        if not small.any():
+            break
+        src, dst, w = src[small], dst[small], w[small]
+        order = np.lexsort((-w, src))
+        src, dst = src[order], dst[order]
+        first = np.r_[True, src[1:] != src[:-1]]
+        remap = np.arange(len(pts))
+        for s_, d_ in zip(src[first].tolist(), dst[first].tolist(), strict=True):
+            if remap[d_] != s_:  # do not let two small regions swap into each other
+                remap[s_] = remap[d_]
+        region = remap[region]
+    return region
+
+
+def _structure_distance(p: NDArray, planes: list[dict[str, Any]]) -> NDArray[np.float64]:
+    """Distance [k] of points [k, 3] to the nearest structure plane: the floor (z = 0), a wall, the ceiling (m)."""
+    dist = np.abs(p[:, 2])
+    for plane in planes:
+        if plane["kind"] == "wall":
+            dist = np.minimum(dist, np.abs(p @ np.asarray(plane["normal"]) + plane["offset"]))
+        elif plane["kind"] == "ceiling":
+            dist = np.minimum(dist, np.abs(p[:, 2] - plane["height"]))
+    return dist
+
+
+def _filter_regions(
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    which_wall: NDArray[np.int64],
     planes: list[dict[str, Any]],
     cfg: SegmentConfig,
-) -> int:
-    """Clusters that are slivers of a wall or the ceiling (most of their points within ``structure_band``
-    of its plane) join it; returns how many did. Edits ``struct`` and ``clusters`` in place."""
-    joined = 0
-    for c in np.unique(clusters[clusters > 0]):
-        sel = clusters == c
-        p = verts[sel]
-        for plane in planes:
-            if plane["kind"] == "wall":
-                dist = np.abs(p @ np.asarray(plane["normal"]) + plane["offset"])
-            elif plane["kind"] == "ceiling":
-                dist = np.abs(p[:, 2] - plane["height"])
+) -> tuple[NDArray[np.int64], dict[str, int]]:
+    """Regions renumbered 1..k after dropping the too small, the too large (leftovers of the room), slivers
+    of the structure (a region within ``structure_band`` of the floor, walls and ceiling and thinner than
+    ``sliver_thickness`` across them: the rounded corner where a wall meets the ceiling) and wall patches
+    that are not flush objects (touching the floor or ceiling, as a door does, or of the wall's colour)."""
+    g = sp.graph
+    point_region = region[g.label]
+    out = np.zeros_like(region)
+    counts = {"too_small": 0, "too_large": 0, "joined_structure": 0, "flush_objects": 0, "wall_patches": 0}
+    ceiling = [float(p["height"]) for p in planes if p["kind"] == "ceiling"]
+    top = ceiling[0] if ceiling else np.inf
+    normals = {int(p["id"]): (np.asarray(p["normal"]), float(p["offset"])) for p in planes if p["kind"] == "wall"}
+    nxt = 1
+    order = np.argsort(point_region, kind="stable")
+    bounds = np.searchsorted(point_region[order], np.arange(int(region.max()) + 2))
+    for r in range(1, int(region.max()) + 1):
+        idx = order[bounds[r] : bounds[r + 1]]
+        if len(idx) == 0:
+            continue
+        p = sp.points[idx]
+        ext = float(np.ptp(p, axis=0).max())
+        if len(idx) < cfg.min_segment_points or ext < cfg.min_segment_extent:
+            counts["too_small"] += 1
+            continue
+        if ext > cfg.max_segment_extent:
+            counts["too_large"] += 1
+            continue
+        walls, n_on = np.unique(sp.wall[idx], return_counts=True)
+        wall = int(walls[np.argmax(n_on)])
+        if wall > 0 and n_on.max() >= 0.5 * len(idx):
+            n, d = normals[wall]
+            proud = float(np.median(p @ n + d))
+            hangs = p[:, 2].min() >= cfg.flush_min_height and p[:, 2].max() <= top - cfg.flush_min_height
+            # the colour step right across its outline, against the wall around it: a picture's edge is
+            # sharp, a shading gradient on the paint is not
+            inside = region[g.pairs[:, 0]] == r
+            outside = region[g.pairs[:, 1]] == r
+            rim = (inside ^ outside) & (np.where(inside, which_wall[g.pairs[:, 1]], which_wall[g.pairs[:, 0]]) == wall)
+            edge = float((g.step[rim] * g.contacts[rim]).sum() / max(g.contacts[rim].sum(), 1))
+            if hangs and ext <= cfg.flush_max_extent and (edge >= cfg.flush_edge_step or proud >= cfg.flush_offset):
+                counts["flush_objects"] += 1
+                out[region == r] = nxt
+                nxt += 1
             else:
-                continue
-            thick = float(np.subtract(*np.percentile(dist, [95, 5])))
-            if (dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction and thick < cfg.sliver_thickness:
-                struct[sel] = plane["id"]
-                clusters[sel] = 0
-                joined += 1
-                break
-    return joined
+                counts["wall_patches"] += 1
+            continue
+        dist = _structure_distance(p, planes)
+        if (dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction and np.percentile(
+            dist, 95
+        ) < cfg.sliver_thickness:
+            counts["joined_structure"] += 1
+            continue
+        out[region == r] = nxt
+        nxt += 1
+    counts["kept"] = nxt - 1
+    return out, counts
+
+
+def _finish(
+    rgb: NDArray[np.uint8],
+    depth: NDArray[np.float32],
+    K: NDArray,
+    world_from_cam: NDArray,
+    verts: NDArray,
+    faces: NDArray[np.int64],
+    struct: NDArray[np.int64],
+    planes: list[dict[str, Any]],
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    cfg: SegmentConfig,
+    segmenter: str,
+    stats: dict[str, Any],
+    clip_model: str | None,
+    clip_model_name: str,
+    vocabulary: tuple[str, ...],
+) -> SegmentResult:
+    """Vertex labels from the structure and the object regions, rendered into every frame; labels; report."""
+    T, H, W = depth.shape
+    n_struct = max(int(p["id"]) for p in planes)
+    vregion = np.zeros(len(verts), np.int64)
+    mapped = sp.vertex_point >= 0
+    vregion[mapped] = region[sp.graph.label[sp.vertex_point[mapped]]]
+    vlabel = np.where(vregion > 0, vregion + n_struct, struct)
+    # a face takes the label two or three of its vertices share, else none
+    fl = vlabel[faces]
+    face_label = np.where(
+        (fl[:, 0] == fl[:, 1]) | (fl[:, 0] == fl[:, 2]), fl[:, 0], np.where(fl[:, 1] == fl[:, 2], fl[:, 1], 0)
+    )
+    caster = RayCaster(labelled_meshes(verts, faces, face_label))
+    masks, rstats = render_masks(
+        caster, K, world_from_cam, W, H, depth, cfg.depth_abs_tolerance, cfg.depth_rel_tolerance
+    )
+    counts = np.bincount((masks.reshape(T, -1).astype(np.int64) + np.arange(T)[:, None] * (int(masks.max()) + 1)).ravel(),
+                         minlength=T * (int(masks.max()) + 1)).reshape(T, -1)  # fmt: skip
+    small = (counts > 0) & (counts < cfg.min_mask_pixels)
+    small[:, 0] = False
+    if small.any():
+        masks[np.take_along_axis(small, masks.reshape(T, -1).astype(np.int64), axis=1).reshape(masks.shape)] = 0
+    present = {int(i) for i in np.flatnonzero(np.bincount(masks.ravel())) if i > 0}
+    kinds = {p["id"]: p["kind"] for p in planes}
+    labels: dict[int, tuple[str, bool]] = {}
+    for i in sorted(present):
+        labels[i] = (kinds[i], True) if i in kinds else ("object", False)
+    objects = [i for i in labels if not labels[i][1]]
+    if not objects:
+        raise SegmentError(
+            f"empty scene after segmentation: {stats.get('superpoints', 0)} superpoints, none kept in an object "
+            f"({stats.get('too_small', 0)} regions smaller than {cfg.min_segment_extent} m or {cfg.min_segment_points} "
+            f"points, {stats.get('too_large', 0)} larger than {cfg.max_segment_extent} m); the recording may not show "
+            "objects clear of the floor and walls"
+        )
+    label_report: dict[str, Any] = {"labeller": "none (every segment is 'object')"}
+    if clip_model:
+        names, label_report = zero_shot_labels(
+            rgb, masks, objects, clip_model, clip_model_name, vocabulary, cfg.clip_views
+        )
+        for i, name in names.items():
+            labels[i] = (name, False)
+        segmenter += "+clip"
+    report = {
+        "segmenter": segmenter,
+        "mesh": {"vertices": int(len(verts)), "faces": int(len(faces)), "tsdf_voxel": cfg.tsdf_voxel},
+        "planes": planes,
+        "regions": stats,
+        "render": rstats,
+        "objects": len(objects),
+        "structural": len(labels) - len(objects),
+        "labels": label_report,
+        "config": cfg.model_dump(mode="json"),
+    }
+    return SegmentResult(masks, labels, segmenter, report, verts, faces, face_label)
+
+
+def fuse_scan(
+    rgb: NDArray[np.uint8], depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, cfg: SegmentConfig
+) -> tuple[NDArray, NDArray[np.int64], NDArray[np.int64], list[dict[str, Any]], ScanPoints, dict[str, float]]:
+    """Steps 1-3 shared by both front ends: mesh vertices [v, 3], faces [f, 3], structure label per vertex,
+    the planes, the superpoints and the seconds each step took."""
+    seconds: dict[str, float] = {}
+    t = time.perf_counter()
+    verts, faces, normals, colours = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
+    if len(faces) == 0:
+        raise SegmentError("TSDF fusion produced no surface (no valid depth in range; check --depth-scale)")
+    seconds["tsdf"] = time.perf_counter() - t
+    t = time.perf_counter()
+    cams = np.asarray(world_from_cam)[:, :3, 3]
+    struct, planes = _structure(verts, normals, cams, cfg)
+    seconds["structure"] = time.perf_counter() - t
+    t = time.perf_counter()
+    sp = scan_points(verts, normals, colours, struct, planes, cfg)
+    seconds["superpoints"] = time.perf_counter() - t
+    return verts, faces, struct, planes, sp, seconds
 
 
 def segment_geometric(
@@ -353,68 +679,14 @@ def segment_geometric(
     rgb [T, H, W, 3] uint8, depth [T, H, W] float32 metres (0 invalid), K [T, 3, 3], world_from_cam
     [T, 4, 4] (OpenCV axes). clip_model: a local open_clip checkpoint to label segments zero-shot.
     """
-
     cfg = config or SegmentConfig()
-    T, H, W = depth.shape
-    verts, faces, normals, _ = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
-    if len(faces) == 0:
-        raise SegmentError("TSDF fusion produced no surface (no valid depth in range; check --depth-scale)")
-    cams = np.asarray(world_from_cam)[:, :3, 3]
-    struct, planes = _structure(verts, normals, cams, cfg)
-    clusters, cstats = _clusters(verts, normals, struct == 0, cfg)
-    cstats["joined_structure"] = _absorb_structure(verts, struct, clusters, planes, cfg)
-    kept = np.unique(clusters[clusters > 0])
-    remap = np.zeros(int(clusters.max()) + 1, np.int64)
-    remap[kept] = np.arange(1, len(kept) + 1)
-    clusters = remap[clusters]
-    n_struct = max(int(p["id"]) for p in planes)
-    vlabel = np.where(struct > 0, struct, np.where(clusters > 0, clusters + n_struct, 0))
-    # a face takes the label two or three of its vertices share, else none
-    fl = vlabel[faces]
-    face_label = np.where(
-        (fl[:, 0] == fl[:, 1]) | (fl[:, 0] == fl[:, 2]), fl[:, 0], np.where(fl[:, 1] == fl[:, 2], fl[:, 1], 0)
-    )
-    caster = RayCaster(labelled_meshes(verts, faces, face_label))
-    masks, rstats = render_masks(
-        caster, K, world_from_cam, W, H, depth, cfg.depth_abs_tolerance, cfg.depth_rel_tolerance
-    )
-    for t in range(T):
-        counts = np.bincount(masks[t].ravel())
-        small = np.flatnonzero((counts > 0) & (counts < cfg.min_mask_pixels))
-        small = small[small > 0]
-        if len(small):
-            masks[t][np.isin(masks[t], small)] = 0
-    present = {int(i) for i in np.unique(masks) if i > 0}
-    kinds = {p["id"]: p["kind"] for p in planes}
-    labels: dict[int, tuple[str, bool]] = {}
-    for i in sorted(present):
-        labels[i] = (kinds[i], True) if i in kinds else ("object", False)
-    objects = [i for i in labels if not labels[i][1]]
-    if not objects:
-        raise SegmentError(
-            f"empty scene after segmentation: {cstats['clusters']} clusters, none kept as an object "
-            f"({cstats['too_small']} smaller than {cfg.min_segment_extent} m or {cfg.min_segment_points} points, "
-            f"{cstats['too_large']} larger than {cfg.max_segment_extent} m); the recording may not show objects "
-            "clear of the floor and walls"
-        )
-    segmenter = "geometric"
-    label_report: dict[str, Any] = {"labeller": "none (every segment is 'object')"}
-    if clip_model:
-        names, label_report = zero_shot_labels(
-            rgb, masks, objects, clip_model, clip_model_name, vocabulary, cfg.clip_views
-        )
-        for i, name in names.items():
-            labels[i] = (name, False)
-        segmenter = "geometric+clip"
-    report = {
-        "segmenter": segmenter,
-        "mesh": {"vertices": int(len(verts)), "faces": int(len(faces)), "tsdf_voxel": cfg.tsdf_voxel},
-        "planes": planes,
-        "clusters": cstats,
-        "render": rstats,
-        "objects": len(objects),
-        "structural": len(labels) - len(objects),
-        "labels": label_report,
-        "config": cfg.model_dump(mode="json"),
-    }
-    return SegmentResult(masks, labels, segmenter, report, verts, faces, face_label)
+    verts, faces, struct, planes, sp, seconds = fuse_scan(rgb, depth, K, world_from_cam, cfg)
+    t = time.perf_counter()
+    region, _, stats = merge_superpoints(sp, planes, cfg)
+    seconds["merge"] = time.perf_counter() - t
+    t = time.perf_counter()
+    result = _finish(rgb, depth, K, world_from_cam, verts, faces, struct, planes, sp, region, cfg, "geometric",
+                     stats, clip_model, clip_model_name, vocabulary)  # fmt: skip
+    seconds["render_and_labels"] = time.perf_counter() - t
+    result.report["seconds"] = {k: round(v, 2) for k, v in seconds.items()}
+    return result
