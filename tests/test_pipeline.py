@@ -4,6 +4,8 @@ stage doubles of tests/flows/fakes.py on the hand-made box capture."""
 from __future__ import annotations
 
 import json
+import os
+import time
 from pathlib import Path
 
 import pytest
@@ -71,12 +73,15 @@ class FakeHarness:
     def __init__(self) -> None:
         self.started = False
         self.runs: list[Path] = []
+        self.caches: list[str | None] = []
 
     def start(self) -> None:
         self.started = True
 
     def run(self, capture: Path, run_dir: Path):
         self.runs.append(run_dir)
+        self.caches.append(os.environ.get("RESCENE_CACHE_DIR"))
+        time.sleep(0.05)  # a flow run takes time: the ratios to the library run stay above their rounding
         seg = Segment(run_dir, "registration-000002")
         seg.log("/task/events", {"stage": "registration", "item": 2, "event": "start", "seconds": 0.0})
         seg.log("/task/events", {"stage": "registration", "item": 2, "event": "end", "seconds": 0.25})
@@ -89,13 +94,27 @@ class FakeHarness:
         return State()
 
 
-def test_the_suite_times_the_flow_twice_and_the_library_once(fake_library, boxes, monkeypatch, tmp_path):
+def test_the_suite_times_the_flow_three_times_and_the_library_once(fake_library, boxes, monkeypatch, tmp_path):
     monkeypatch.setattr(suite, "_capture", lambda work_dir, preset, seed: boxes)
+    library_caches: list[str | None] = []
+    real_pipeline = suite.run_pipeline
+
+    def library(capture):
+        library_caches.append(os.environ.get("RESCENE_CACHE_DIR"))
+        return real_pipeline(capture)
+
+    monkeypatch.setattr(suite, "run_pipeline", library)
+    before = os.environ.get("RESCENE_CACHE_DIR")
     harness = FakeHarness()
     result = suite.run([0], "tiny", tmp_path, harness=harness)
     (row,) = result["runs"]
-    assert harness.started and harness.runs == [tmp_path / "run_tiny_seed0"] * 2
-    assert row["state_cold"] == row["state_cached"] == "Completed"
+    assert harness.started and harness.runs == [tmp_path / "run_tiny_seed0"] * 2 + [tmp_path / "run_tiny_seed0_fresh"]
+    # cold, cached and fresh-directory flow runs share one user cache; the library run has an empty one
+    assert harness.caches == [str(tmp_path / "cache_flow_seed0")] * 3
+    assert library_caches == [str(tmp_path / "cache_library_seed0")]
+    assert os.environ.get("RESCENE_CACHE_DIR") == before
+    assert row["state_cold"] == row["state_cached"] == row["state_fresh_dir"] == "Completed"
+    assert row["seconds_fresh_dir"] > 0 and row["stage_seconds_fresh_dir"] == {"registration": 0.25}
     assert row["stage_seconds_flow"] == {"registration": 0.25}
     assert set(row["stage_seconds_library"]) >= {"shell", "registration", "export"}
     assert row["seconds_library"] > 0 and row["overhead_ratio"] > 0 and row["cached_fraction"] > 0
