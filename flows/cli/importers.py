@@ -50,8 +50,8 @@ def _cmd_import(args: argparse.Namespace) -> int:
     if args.vocabulary:
         fields["vocabulary"] = tuple(v.strip() for v in args.vocabulary.split(",") if v.strip())
     extra = {}
-    if args.masks is not None:
-        extra["masks"] = args.masks
+    if args.masks is not None:  # the panoptic format's instance PNGs, or a 2D segmenter's for --segment masks
+        extra["masks" if args.format == "panoptic" else "mask_dir"] = args.masks
     if args.labels is not None:
         extra["labels"] = args.labels
     if args.base is not None:
@@ -111,7 +111,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("src", type=Path, help="the source folder")
     p.add_argument("out", type=Path, help="output capture, e.g. room.zarr")
     p.add_argument(
-        "--segment", choices=["none", "geometric"], help="geometric: label-free instances (TSDF + planes + clusters)"
+        "--segment",
+        choices=["none", "geometric", "masks"],
+        help="geometric: label-free instances (TSDF + planes + superpoints merged by geometry and colour); "
+        "masks: superpoints merged by the view consensus of a 2D segmenter's per-frame masks (--masks DIR)",
     )
     p.add_argument("--clip-model", type=Path, help="local open_clip checkpoint to label geometric segments zero-shot")
     p.add_argument("--vocabulary", help="comma-separated labels for --clip-model")
@@ -134,7 +137,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="largest angle between the floor normal and the prior up (default 10 with --up, 80 from the cameras)",
     )
     p.add_argument("--resolution", choices=["depth", "color"], help="scannet: the image size kept")
-    p.add_argument("--masks", type=Path, help="panoptic: folder of per-frame instance-id PNGs (default SRC/instances)")
+    p.add_argument(
+        "--masks",
+        type=Path,
+        help="panoptic: folder of per-frame instance-id PNGs (default SRC/instances); rgbd, nerfstudio with "
+        "--segment masks: a 2D segmenter's per-frame id PNGs named like the frames (ids need not agree across frames)",
+    )
     p.add_argument(
         "--labels", type=Path, help="panoptic: labels.json (default SRC/labels.json); scannet: label map TSV"
     )

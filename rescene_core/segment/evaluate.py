@@ -66,6 +66,7 @@ def instance_scores(
         "precision": round(len(matched) / n_pred, 4) if n_pred else None,
         "iou_threshold": iou_threshold,
         "min_size_m": min_size,
+        "matched_objects": sorted(matched),
         "missed_large": sorted(
             (i, round(best[i], 3), round(gt_sizes.get(i, 0.0), 3)) for i in large if i not in matched
         ),
@@ -77,4 +78,31 @@ def synth_object_sizes(scene) -> dict[int, float]:
     out = {}
     for o in scene.gt.objects:
         out[int(o.object_id)] = float(np.ptp(np.asarray(o.vertices), axis=0).max())
+    return out
+
+
+def touching_pairs(scene, gap: float = 0.03, samples: int = 3000, seed: int = 0) -> list[tuple[int, int]]:
+    """Ground-truth object pairs (ids, a < b) whose surfaces come closer than ``gap`` metres: a lamp on a
+    nightstand, a chair pushed against a table. Each mesh is sampled at ``samples`` points (trimesh)."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    clouds = {}
+    for o in scene.gt.objects:
+        mesh = trimesh.Trimesh(np.asarray(o.vertices), np.asarray(o.faces), process=False)
+        pts = np.asarray(trimesh.sample.sample_surface(mesh, samples, seed=seed)[0])
+        pose = np.asarray(o.world_from_object)
+        clouds[int(o.object_id)] = pts @ pose[:3, :3].T + pose[:3, 3]
+    ids = sorted(clouds)
+    trees = {i: cKDTree(clouds[i]) for i in ids}
+    lo = {i: clouds[i].min(axis=0) for i in ids}
+    hi = {i: clouds[i].max(axis=0) for i in ids}
+    out = []
+    for k, a in enumerate(ids):
+        for b in ids[k + 1 :]:
+            if np.any(lo[a] - gap > hi[b]) or np.any(lo[b] - gap > hi[a]):
+                continue
+            d, _ = trees[b].query(clouds[a], k=1, distance_upper_bound=gap)
+            if np.isfinite(d).any():
+                out.append((a, b))
     return out

@@ -92,6 +92,8 @@ class SegmentConfig(BaseModel):
     """Points closer than this many ``superpoint_voxel`` share a graph edge."""
     fh_k: float = 0.5
     """Felzenszwalb-Huttenlocher scale: larger gives larger superpoints."""
+    masks_fh_k: float = 0.25
+    """The scale for ``--segment masks``: finer superpoints, since the masks, not geometry, join them."""
     fh_colour_weight: float = 1.0
     """Weight of the RGB step (0-1) against the normal bend (1 - cos) in an edge's weight."""
     fh_min_size: int = 20
@@ -146,7 +148,17 @@ class SegmentConfig(BaseModel):
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
     seed: int = 0
-    """Seed of Open3D's RANSAC."""
+    """Seed of Open3D's RANSAC and of the choice of voting points."""
+    vote_points: int = 40
+    """``--segment masks``: points of each superpoint projected into the frames (at most)."""
+    vote_min_points: int = 3
+    """... fewest of them visible in a frame for the superpoint to vote there."""
+    vote_min_share: float = 0.5
+    """... share of its visible points that must read one id for the vote to count."""
+    consensus_min_frames: int = 2
+    """... fewest frames in which two touching superpoints both vote before they can join..."""
+    consensus_fraction: float = 0.6
+    """... and the share of those frames that must give both the same id."""
     clip_views: int = 3
     """Views per segment shown to the zero-shot classifier (the largest masks)."""
 
@@ -331,10 +343,11 @@ class ScanPoints:
 
 def scan_points(
     verts: NDArray, normals: NDArray, colours: NDArray, struct: NDArray[np.int64], planes: list[dict[str, Any]],
-    cfg: SegmentConfig,
+    cfg: SegmentConfig, fh_k: float | None = None,
 ) -> ScanPoints:  # fmt: skip
     """Thin the free and wall vertices (each wall on its own, so a point is either on a wall or not) to
-    ``superpoint_voxel`` and over-segment them into superpoints (``rescene_core.segment.superpoints``)."""
+    ``superpoint_voxel`` and over-segment them into superpoints (``rescene_core.segment.superpoints``) at
+    the scale ``fh_k`` (default ``cfg.fh_k``)."""
     import open3d as o3d
 
     groups = [0] + [int(p["id"]) for p in planes if p["kind"] == "wall"]
@@ -363,7 +376,7 @@ def scan_points(
     N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-9)
     edges = point_graph(P, cfg.superpoint_voxel * cfg.graph_radius_voxels)
     weights, concave, step = edge_weights(P, N, C, edges, cfg.fh_colour_weight)
-    label = felzenszwalb(len(P), edges, weights, cfg.fh_k, cfg.fh_min_size)
+    label = felzenszwalb(len(P), edges, weights, cfg.fh_k if fh_k is None else fh_k, cfg.fh_min_size)
     graph = superpoint_graph(P, N, C, label, edges, concave, step)
     return ScanPoints(P, N, C, Wl, vertex_point, edges, graph)
 
@@ -510,6 +523,7 @@ def _filter_regions(
     which_wall: NDArray[np.int64],
     planes: list[dict[str, Any]],
     cfg: SegmentConfig,
+    flush_by_masks: bool = False,
 ) -> tuple[NDArray[np.int64], dict[str, int]]:
     """Regions renumbered 1..k after dropping the too small, the too large (leftovers of the room), slivers
     of the structure (a region within ``structure_band`` of the floor, walls and ceiling and thinner than
@@ -549,7 +563,9 @@ def _filter_regions(
             outside = region[g.pairs[:, 1]] == r
             rim = (inside ^ outside) & (np.where(inside, which_wall[g.pairs[:, 1]], which_wall[g.pairs[:, 0]]) == wall)
             edge = float((g.step[rim] * g.contacts[rim]).sum() / max(g.contacts[rim].sum(), 1))
-            if hangs and ext <= cfg.flush_max_extent and (edge >= cfg.flush_edge_step or proud >= cfg.flush_offset):
+            # with masks the region is already a consensus of views: hanging clear is enough
+            apart = flush_by_masks or edge >= cfg.flush_edge_step or proud >= cfg.flush_offset
+            if hangs and ext <= cfg.flush_max_extent and apart:
                 counts["flush_objects"] += 1
                 out[region == r] = nxt
                 nxt += 1
@@ -557,9 +573,16 @@ def _filter_regions(
                 counts["wall_patches"] += 1
             continue
         dist = _structure_distance(p, planes)
-        if (dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction and np.percentile(
-            dist, 95
-        ) < cfg.sliver_thickness:
+        sliver = bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)
+        sliver &= bool(np.percentile(dist, 95) < cfg.sliver_thickness)
+        if (
+            sliver
+            and flush_by_masks
+            and p[:, 2].min() >= cfg.flush_min_height
+            and p[:, 2].max() <= top - cfg.flush_min_height
+        ):
+            sliver = False  # the masks see it apart from its wall: a picture the wall planes did not take
+        if sliver:
             counts["joined_structure"] += 1
             continue
         out[region == r] = nxt
@@ -644,7 +667,12 @@ def _finish(
 
 
 def fuse_scan(
-    rgb: NDArray[np.uint8], depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, cfg: SegmentConfig
+    rgb: NDArray[np.uint8],
+    depth: NDArray[np.float32],
+    K: NDArray,
+    world_from_cam: NDArray,
+    cfg: SegmentConfig,
+    fh_k: float | None = None,
 ) -> tuple[NDArray, NDArray[np.int64], NDArray[np.int64], list[dict[str, Any]], ScanPoints, dict[str, float]]:
     """Steps 1-3 shared by both front ends: mesh vertices [v, 3], faces [f, 3], structure label per vertex,
     the planes, the superpoints and the seconds each step took."""
@@ -659,7 +687,7 @@ def fuse_scan(
     struct, planes = _structure(verts, normals, cams, cfg)
     seconds["structure"] = time.perf_counter() - t
     t = time.perf_counter()
-    sp = scan_points(verts, normals, colours, struct, planes, cfg)
+    sp = scan_points(verts, normals, colours, struct, planes, cfg, fh_k)
     seconds["superpoints"] = time.perf_counter() - t
     return verts, faces, struct, planes, sp, seconds
 

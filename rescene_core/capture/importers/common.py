@@ -56,11 +56,12 @@ class ImportOptions(BaseModel):
     max_tilt: float | None = None
     """Largest angle between the floor normal and the prior up (deg): the given gravity's (default 10) or
     the cameras' mean up (default 80); None: the alignment's defaults."""
-    segment: Literal["none", "geometric"] = "none"
+    segment: Literal["none", "geometric", "masks"] = "none"
     """Instance masks: 'none' takes them from the source; 'geometric' makes them without labels (TSDF,
-    planes removed, clusters, rendered back into every frame)."""
+    planes removed, superpoints merged by geometry and colour, rendered back into every frame); 'masks'
+    merges the superpoints by the view consensus of a 2D segmenter's per-frame masks (``--masks DIR``)."""
     clip_model: str | None = None
-    """Local open_clip checkpoint: label the geometric segments zero-shot over ``vocabulary``."""
+    """Local open_clip checkpoint: label the segments of --segment geometric or masks zero-shot over ``vocabulary``."""
     clip_model_name: str = "ViT-B-32"
     """open_clip architecture of ``clip_model``."""
     vocabulary: tuple[str, ...] = (

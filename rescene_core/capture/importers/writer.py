@@ -33,7 +33,8 @@ from rescene_core.capture.importers.common import (
 from rescene_core.capture.validate import check_capture
 from rescene_core.io import atomic_directory, write_json_atomic
 from rescene_core.records import Instance, InstanceId
-from rescene_core.segment import SegmentError, segment_geometric
+from rescene_core.segment import SegmentError, segment_geometric, segment_masks
+from rescene_core.segment.lift import read_mask_dir
 
 
 def report_path(out: str | Path) -> Path:
@@ -65,8 +66,12 @@ def finish_import(
     align_config: AlignConfig | None = None,
     points_config: DepthPointsConfig | None = None,
     segment_config: Any = None,
+    mask_dir: str | Path | None = None,
 ) -> dict[str, Any]:
-    """Turn read frames into a capture at ``out``; returns the import report (also written beside it)."""
+    """Turn read frames into a capture at ``out``; returns the import report (also written beside it).
+
+    mask_dir: with ``--segment masks``, the folder of per-frame id PNGs of a 2D segmenter (named like the
+    frames' images; ids need not agree across frames)."""
     out = Path(out)
     timings: dict[str, float] = {"read": time.perf_counter() - started}
     if out.exists() and not opts.overwrite:
@@ -77,9 +82,19 @@ def finish_import(
             "(fix: add depth maps, e.g. depth_file_path in transforms.json)"
         )
     T = len(frames.names)
-    if T == 1 and opts.segment == "geometric":
+    if mask_dir is not None and opts.segment != "masks":
         raise ImportInputError(
-            f"{frames.src}: a single frame ({frames.names[0]}) to import; --segment geometric keeps only the surface "
+            f"{frames.src}: --masks {mask_dir} is read with --segment masks (or the panoptic format, whose masks are "
+            "consistent instance ids); add --segment masks"
+        )
+    if opts.segment == "masks" and mask_dir is None:
+        raise ImportInputError(
+            f"{frames.src}: --segment masks needs --masks DIR, a folder with one id PNG per frame named like the "
+            "frame's image (e.g. SAM 2 automatic masks; docs/importing.md shows how to make them)"
+        )
+    if T == 1 and opts.segment in ("geometric", "masks"):
+        raise ImportInputError(
+            f"{frames.src}: a single frame ({frames.names[0]}) to import; --segment {opts.segment} keeps only the surface "
             "seen from two frames or more, so one frame gives none (fix: import more frames, check --stride and "
             "--max-frames, or give per-frame instance masks with the panoptic format)"
         )
@@ -111,18 +126,31 @@ def finish_import(
     t = time.perf_counter()
     segment_report: dict[str, Any]
     labels = dict(frames.labels)
-    if frames.render_masks is not None and opts.segment != "geometric":
+    if frames.render_masks is not None and opts.segment == "none":
         frames.render_masks(frames)
-    if opts.segment == "geometric":
+    if opts.segment in ("geometric", "masks"):
         try:
-            seg = segment_geometric(
-                frames.rgb, frames.depth, frames.K, world_from_cam, segment_config, opts.clip_model,
-                opts.clip_model_name, opts.vocabulary,
-            )  # fmt: skip
+            if opts.segment == "masks":
+                H, W = frames.depth.shape[1:]
+                frame_masks = read_mask_dir(mask_dir or "", frames.names, H, W)
+                missing = sum(m is None for m in frame_masks)
+                if missing:
+                    frames.notes.append(f"{missing} of {T} frames have no mask in {mask_dir}: they cast no votes")
+                seg = segment_masks(
+                    frames.rgb, frames.depth, frames.K, world_from_cam, frame_masks, segment_config,
+                    opts.clip_model, opts.clip_model_name, opts.vocabulary,
+                )  # fmt: skip
+            else:
+                seg = segment_geometric(
+                    frames.rgb, frames.depth, frames.K, world_from_cam, segment_config, opts.clip_model,
+                    opts.clip_model_name, opts.vocabulary,
+                )  # fmt: skip
         except SegmentError as err:
             raise ImportInputError(f"{frames.src}: {err}") from err
         if frames.masks is not None:
-            frames.notes.append("the source's masks were replaced by the geometric segmentation (--segment geometric)")
+            frames.notes.append(
+                f"the source's masks were replaced by the {opts.segment} segmentation (--segment {opts.segment})"
+            )
         masks = seg.masks
         labels = {i: (lab, st) for i, (lab, st) in seg.labels.items()}
         segmenter = seg.segmenter
@@ -134,7 +162,8 @@ def finish_import(
     else:
         raise ImportInputError(
             f"{frames.src}: the source has no instance masks (fix: pass --segment geometric for label-free "
-            "instances, or import with the panoptic format and a folder of instance PNGs)"
+            "instances, --segment masks --masks DIR for a 2D segmenter's per-frame masks, or import with the "
+            "panoptic format and a folder of instance PNGs)"
         )
     timings["segment"] = time.perf_counter() - t
 
