@@ -27,12 +27,18 @@ def test_the_sampler_sees_an_allocation_inside_its_window():
         time.sleep(3 * scale.SAMPLE_S)
         start = time.time_ns()
         block = np.ones(100_000_000 // 8)  # 100 MB, touched
-        time.sleep(4 * scale.SAMPLE_S)
+        spin = time.process_time() + 0.2
+        while time.process_time() < spin:  # CPU time inside the window
+            block[::4096] += 1.0
+        time.sleep(2 * scale.SAMPLE_S)
         end = time.time_ns()
         del block
     before = rss.peak(0, start)
     during = rss.peak(start, end)
     assert before is not None and during is not None and during - before > 75e6
+    cpu = rss.cpu(start, end)
+    assert cpu is not None and 0.15 < cpu
+    assert rss.cpu(end + 10**9, end + 2 * 10**9) is None  # no samples there
 
 
 def test_frame_counts_on_the_command_line():

@@ -15,8 +15,15 @@ def test_the_import_child_reports_seconds_steps_and_rss(tmp_path, tiny_scene):
     assert got["frames"] == tiny_scene.arrays.rgb.shape[0] and got["fps"] > 0 and got["seconds"] > 0
     assert set(got["steps"]) >= {"read", "align", "points", "write"}
     assert all(v["seconds"] >= 0 for v in got["steps"].values())
-    assert 0.05 < got["peak_rss_gb"] < 6.0
+    assert 0.05 < got["peak_rss_gb"] < 6.0 and got["cpu_seconds"] > 0
     assert (tmp_path / "imported.zarr").is_dir()
+    row = {"seed": 0, "frames": got["frames"], "objects": 5, "image_size": [160, 120], "import": got}
+    row |= {"load_import": 1.0, "load_after": 1.0}
+    summary = scale._summary([row])
+    assert summary["aims_met"]["at_most_linear"] is None  # one frame count: no slope
+    assert summary["aims_met"]["run_seconds_at_600"] is None and summary["slopes"]["import total"] is None
+    text = scale.table({"preset": "tiny", "seeds": [0], "frames": [got["frames"]], "rows": [row], **summary})
+    assert "import" in text and "frames/s" in text and "not measured" in text
 
 
 def test_an_opened_capture_is_written_as_from_memory(tmp_path, tiny_scene):
