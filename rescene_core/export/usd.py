@@ -123,14 +123,19 @@ def write_usd(
         prim = xform.GetPrim()
         if len(obj.faces):
             _mesh(stage, f"{root}/visual", obj.vertices, obj.faces)
+        material = _material(stage, f"/World/Materials/{obj.node_name}", body.friction)
         for k, (pv, pf) in enumerate(decompositions[obj.node_name].pieces):
             piece = _mesh(stage, f"{root}/collision_{k}", np.asarray(pv) / scale, pf)
             piece.CreatePurposeAttr(UsdGeom.Tokens.guide)
             _collider(piece.GetPrim(), "convexHull")
+            # bound on every collider too, not only inherited from the body: Newton's importer reads a
+            # collider's own binding and falls back to friction 1.0 (USD apps that resolve inheritance
+            # find the same material either way)
+            _bind(piece.GetPrim(), material)
         if body.kind == "free":
             UsdPhysics.RigidBodyAPI.Apply(prim)
             UsdPhysics.MassAPI.Apply(prim).CreateMassAttr(float(body.mass))
-        _bind(prim, _material(stage, f"/World/Materials/{obj.node_name}", body.friction))
+        _bind(prim, material)
         edge = parents.get(InstanceId(obj.instance))
         attrs = {
             "rescene:instance": (Sdf.ValueTypeNames.Int, int(obj.instance)),

@@ -16,7 +16,7 @@ The first check in a fresh environment compiles Warp's kernels (about a minute o
 ``~/.cache/warp``); ``make setup`` warms that cache so runs and tests do not pay it.
 
 Where the engines disagree on an object (stable in one, not in the other), ``compare`` names it with
-what the two files declare differently for it: collision pieces, mass, free or fixed.
+what the two files declare differently for it: collision pieces, mass, friction, free or fixed.
 """
 
 from __future__ import annotations
@@ -111,10 +111,12 @@ def _contact_depths(model, state, contacts) -> np.ndarray:
 
 @dataclass(frozen=True)
 class NewtonModelFacts:
-    """What the USD declares per object, as Newton read it: collision pieces, mass (kg; None when fixed)."""
+    """What the USD declares per object, as Newton read it: collision pieces, mass (kg; None when fixed),
+    the lowest sliding friction coefficient of its colliders."""
 
     pieces: dict[str, int]
     mass: dict[str, float | None]
+    friction: dict[str, float]
     timestep: float
 
 
@@ -135,12 +137,15 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
     collide = int(newton.ShapeFlags.COLLIDE_SHAPES)
     body_node = [_node_of(label) for label in labels]
     pieces: dict[str, int] = {}
+    friction: dict[str, float] = {}
     fixed_nodes: list[str] = []
-    for label, body, flags in zip(model.shape_label, shape_body, shape_flags, strict=True):
+    shape_mu = model.shape_material_mu.numpy()
+    for label, body, flags, mu in zip(model.shape_label, shape_body, shape_flags, shape_mu, strict=True):
         node = _node_of(label)
         if node is None or not flags & collide:
             continue
         pieces[node] = pieces.get(node, 0) + 1
+        friction[node] = round(min(friction.get(node, np.inf), float(mu)), 4)
         if body < 0 and node not in fixed_nodes:
             fixed_nodes.append(node)
     masses = model.body_mass.numpy()
@@ -202,7 +207,7 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
         quat0[node] = quat1[node] = still
     objects = classify(kinds, before, after, quat0, quat1, depth, shell, config)
     summary = summarise(objects, config, time.perf_counter() - started)
-    facts = NewtonModelFacts(pieces, mass, dt)
+    facts = NewtonModelFacts(pieces, mass, friction, dt)
     record = config.model_dump(mode="json") | {
         "engine": "newton",
         "newton_version": newton.__version__,
@@ -210,35 +215,40 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
         "timestep": dt,
         "pieces": facts.pieces,
         "mass": facts.mass,
+        "friction": facts.friction,
     }
     result = SimcheckResult(tuple(objects), summary, None, record)
     motion = {node: (before[node], after[node]) for node in kinds if kinds[node] == "free"}
     return result, motion
 
 
-def _mujoco_facts(mjcf: Path) -> tuple[dict[str, int], dict[str, float | None]]:
-    """Collision pieces (geoms that collide) and mass (None when fixed) per body of the MJCF."""
+def _mujoco_facts(mjcf: Path) -> tuple[dict[str, int], dict[str, float | None], dict[str, float]]:
+    """Collision pieces (geoms that collide), mass (None when fixed) and the lowest sliding friction of
+    its colliding geoms per body of the MJCF."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(mjcf))
     free = {int(model.jnt_bodyid[j]) for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE}
     pieces: dict[str, int] = {}
+    friction: dict[str, float] = {}
     for g in range(model.ngeom):
         b = int(model.geom_bodyid[g])
         if b == 0 or not (model.geom_contype[g] or model.geom_conaffinity[g]):
             continue
         name = model.body(b).name
         pieces[name] = pieces.get(name, 0) + 1
+        friction[name] = round(min(friction.get(name, np.inf), float(model.geom_friction[g][0])), 4)
     mass = {model.body(b).name: (float(model.body_mass[b]) if b in free else None) for b in range(1, model.nbody)}
-    return pieces, mass
+    return pieces, mass, friction
 
 
 def compare(mujoco_check: dict[str, Any], newton_check: dict[str, Any], mjcf: Path) -> list[dict[str, Any]]:
     """The objects on which the two engines disagree (stable in one, not the other), each with both drifts
     and what the MJCF and the USD declare differently for it; where they declare the same, the reason
     given is the engines' contact models."""
-    pieces_mj, mass_mj = _mujoco_facts(mjcf)
-    pieces_nt, mass_nt = newton_check["config"]["pieces"], newton_check["config"]["mass"]
+    pieces_mj, mass_mj, friction_mj = _mujoco_facts(mjcf)
+    facts = newton_check["config"]
+    pieces_nt, mass_nt, friction_nt = facts["pieces"], facts["mass"], facts.get("friction", {})
     by_node = {o["node"]: o for o in mujoco_check["objects"]}
     out = []
     for o in newton_check["objects"]:
@@ -254,6 +264,9 @@ def compare(mujoco_check: dict[str, Any], newton_check: dict[str, Any], mjcf: Pa
         a, b = mass_mj.get(node), mass_nt.get(node)
         if a is not None and b is not None and abs(a - b) > 1e-3 * max(a, b):
             reasons.append(f"mass: MJCF {a:.3f} kg, USD {b:.3f} kg")
+        f_mj, f_nt = friction_mj.get(node), friction_nt.get(node)
+        if f_mj is not None and f_nt is not None and abs(f_mj - f_nt) > 1e-3:
+            reasons.append(f"friction: MJCF {f_mj:.2f}, USD as Newton read it {f_nt:.2f}")
         depth = max(m["penetration_t0"], o["penetration_t0"])
         if depth > PENETRATION_NOTED_M:
             reasons.append(

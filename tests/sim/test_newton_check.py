@@ -13,7 +13,7 @@ from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.geometry import sim3
 from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
 from rescene_core.sim import SimcheckConfig, simcheck_run
-from rescene_core.sim.newton_check import NewtonUnavailable, compare, newton_simcheck_run
+from rescene_core.sim.newton_check import NewtonUnavailable, _mujoco_facts, compare, newton_simcheck_run
 from tests.fixtures import ONE_WALL_SHELL
 
 pytest.importorskip("newton", reason="the `newton` extra is not installed (make setup installs it)")
@@ -71,6 +71,9 @@ def test_newton_reads_the_usd_and_agrees_with_mujoco_on_clear_cases(run_dir, che
     pieces = {o["node"]: o["collision_pieces"] for o in report["objects"]}
     assert record["config"]["pieces"] == pieces
     assert record["config"]["mass"]["obj_4_picture"] is None
+    # every collider carries the category's friction (MJCF geom friction), not Newton's default of 1.0
+    _, _, mujoco_friction = _mujoco_facts(run_dir / "scene/mjcf/scene.xml")
+    assert record["config"]["friction"] == mujoco_friction and 1.0 not in mujoco_friction.values()
 
 
 def test_a_declared_difference_is_named(run_dir, checks):
@@ -81,6 +84,7 @@ def test_a_declared_difference_is_named(run_dir, checks):
             o["stable"] = False
     flipped["config"]["mass"]["obj_1_cabinet"] *= 2
     flipped["config"]["pieces"]["obj_1_cabinet"] += 1
+    flipped["config"]["friction"]["obj_1_cabinet"] = 1.0
     d = {d["node"]: d for d in compare(mujoco.to_json(), flipped, run_dir / "scene/mjcf/scene.xml")}["obj_1_cabinet"]
     assert d["node"] == "obj_1_cabinet" and d["stable_mujoco"] and not d["stable_newton"]
     assert any(r.startswith("mass:") for r in d["reasons"]) and any(
