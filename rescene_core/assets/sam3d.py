@@ -35,6 +35,7 @@ from scipy.spatial.transform import Rotation
 from rescene_core.assets.base import BackendUnavailable, GenerationFailed, GeneratorInput, GeneratorOutput
 from rescene_core.config import AssetConfig
 from rescene_core.geometry import sim3
+from rescene_core.ops.devices import module_device, note_device
 from rescene_core.records import Asset, Camera, Pose
 
 GLB_FROM_LOCAL = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -154,6 +155,19 @@ def _inference(config_path: str, code_dir: str | None, mtime: float):
     return inference_cls(config_path, compile=False)
 
 
+def inference_device(inference: object) -> str:
+    """Where SAM 3D Objects' ``Inference`` put its pipeline: its own ``device``, its pipeline's, or the device
+    of the first torch module it holds; "unknown" when it shows none (its ``Inference`` places the model)."""
+    for holder in (inference, getattr(inference, "_pipeline", None), getattr(inference, "pipeline", None)):
+        device = getattr(holder, "device", None)
+        if device is not None:
+            return str(device)
+    for value in vars(inference).values() if hasattr(inference, "__dict__") else ():
+        if callable(getattr(value, "parameters", None)):
+            return module_device(value)
+    return "unknown"
+
+
 class Sam3dBackend:
     """SAM 3D Objects behind the AssetBackend protocol (GPU worker with SAM 3D Objects installed)."""
 
@@ -173,8 +187,10 @@ class Sam3dBackend:
             raise BackendUnavailable(f"SAM 3D Objects pipeline config not found at {config_path}")
         self.seed = config.seed
         self.inference = _inference(str(config_path.resolve()), config.sam3d_code_dir, config_path.stat().st_mtime)
+        self.device = inference_device(self.inference)
 
     def generate(self, view: GeneratorInput) -> GeneratorOutput:
+        note_device(self.name, self.device)
         output = self.inference(np.asarray(view.rgb), np.asarray(view.mask, bool), seed=self.seed)
         out = convert_output(output, view.camera)
         out.metadata.update({"frame": int(view.frame), "label": view.label, "seed": self.seed})

@@ -32,6 +32,7 @@ from PIL import Image
 from rescene_core.capture import Capture
 from rescene_core.config import HierViewConfig
 from rescene_core.hierview.projection import LabelTable
+from rescene_core.ops.devices import note_device
 
 log = logging.getLogger(__name__)
 
@@ -192,6 +193,7 @@ class ClipScorer:
             self.config.clip_model, str(self.weights), self.weights.stat().st_mtime
         )
         self.device = next(self.model.parameters()).device
+        note_device(self.name, self.device)
         self._text_cache: dict[str, NDArray[np.float32]] = {}
 
     def _prompt(self, label: str) -> str:

@@ -10,7 +10,8 @@ from rescene_core.runlog.writer import RUN_LOG, read_messages
 
 
 def summarise(run_dir: str | Path) -> dict[str, Any]:
-    """Topics and message counts, per-stage task states, the final flow state, missing instances, metrics."""
+    """Topics and message counts, per-stage task states, the final flow state, missing instances, metrics,
+    and per stage the devices its executions' models ran on ("clip cuda:0")."""
     path = Path(run_dir) / RUN_LOG
     if not path.exists():
         raise FileNotFoundError(f"{path} does not exist; run `rescene run CAPTURE --out {run_dir}` first")
@@ -18,6 +19,7 @@ def summarise(run_dir: str | Path) -> dict[str, Any]:
     counts = Counter(topic for topic, _, _ in messages)
     stages: dict[str, Counter] = defaultdict(Counter)
     executed: Counter = Counter()
+    devices: dict[str, set[str]] = defaultdict(set)
     flow: dict[str, Any] = {}
     metrics: dict[str, dict[str, Any]] = {}
     for topic, _, msg in messages:
@@ -25,6 +27,7 @@ def summarise(run_dir: str | Path) -> dict[str, Any]:
             stages[msg["stage"]]["cached" if msg.get("cached") else msg.get("state", "?").lower()] += 1
         elif topic == "/task/events" and msg.get("event") == "end":
             executed[msg["stage"]] += 1
+            devices[msg["stage"]].update(f"{k} {v}" for k, v in (msg.get("devices") or {}).items())
         elif topic == "/flow/events" and msg.get("event") == "end":
             flow = msg
         elif topic == "/metrics":
@@ -38,6 +41,7 @@ def summarise(run_dir: str | Path) -> dict[str, Any]:
         "topics": dict(sorted(counts.items())),
         "stages": {k: dict(v) for k, v in stages.items()},
         "executions_logged": dict(executed),
+        "devices": {k: sorted(v) for k, v in devices.items() if v},
         "state": flow.get("state"),
         "message": flow.get("message"),
         "missing": flow.get("missing", []),
@@ -55,6 +59,8 @@ def format_summary(s: dict[str, Any]) -> str:
     for stage, states in s["stages"].items():
         parts = ", ".join(f"{k} {v}" for k, v in sorted(states.items()))
         lines.append(f"  {stage:14s} {parts}  (executions logged: {s['executions_logged'].get(stage, 0)})")
+    lines.append("devices of the executed stages' models (none listed: no torch model, the CPU):")
+    lines += [f"  {stage:14s} {', '.join(used)}" for stage, used in sorted(s.get("devices", {}).items())]
     if s["missing"]:
         lines.append(f"missing instances ({len(s['missing'])}):")
         lines += [f"  {m['instance']:5d}  {m['stage']:12s} {m['reason']}" for m in s["missing"]]

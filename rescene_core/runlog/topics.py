@@ -73,6 +73,10 @@ TOPICS: dict[str, tuple[str, dict[str, Any]]] = {
                 "status": {"type": "string"},
                 "error": {"type": ["string", "null"]},
                 "pid": {"type": "integer", "description": "process that executed the task"},
+                "devices": {
+                    "type": "object",
+                    "description": "model -> device it ran on (cuda:0, cpu); empty: no torch model",
+                },
             },
             ["stage", "event"],
         ),

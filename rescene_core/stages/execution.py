@@ -20,6 +20,7 @@ from rescene_core import paths
 from rescene_core.capture import open_capture
 from rescene_core.capture.identity import CaptureChangedError, capture_identity
 from rescene_core.io import hash_file, write_json_atomic
+from rescene_core.ops.devices import recording_devices
 from rescene_core.paths import RunPaths
 from rescene_core.records import Missing, Ref, RefStatus, Stage
 from rescene_core.runlog import Segment
@@ -108,7 +109,8 @@ def segment_name(stage: Stage, item: int | None) -> str:
 @contextmanager
 def executing(run_dir: str | Path, stage: Stage, item: int | None = None) -> Iterator[Segment]:
     """Context of one stage execution: yields its run-log segment (replacing any earlier one), logs
-    start/end/error events with the elapsed seconds, applies injected faults, writes the segment."""
+    start/end/error events with the elapsed seconds (the end event with the devices its models ran on),
+    applies injected faults, writes the segment."""
     seg = Segment(Path(run_dir), segment_name(stage, item))
     start = time.perf_counter()
     pid = os.getpid()
@@ -117,8 +119,9 @@ def executing(run_dir: str | Path, stage: Stage, item: int | None = None) -> Ite
         {"stage": stage, "item": item, "event": "start", "seconds": 0.0, "status": "running", "pid": pid},
     )
     try:
-        inject_fault(run_dir, stage, item)
-        yield seg
+        with recording_devices() as devices:  # where the stage's models ran (rescene_core/ops/devices.py)
+            inject_fault(run_dir, stage, item)
+            yield seg
     except BaseException as exc:
         seg.log(
             "/task/events",
@@ -142,6 +145,7 @@ def executing(run_dir: str | Path, stage: Stage, item: int | None = None) -> Ite
             "seconds": time.perf_counter() - start,
             "status": "ok",
             "pid": pid,
+            "devices": devices,
         },
     )
     seg.close()
