@@ -16,6 +16,7 @@ PREFECT_API_URL ?= http://127.0.0.1:4200/api
 POOL ?= rescene-local
 PG_DIR ?= $(abspath .postgres)
 PG_PORT ?= 5432
+HEARTBEAT_S ?= 30
 
 .DEFAULT_GOAL := help
 .PHONY: help setup system-deps demo demo-real test test-fast typecheck check lint format bench server server-postgres postgres-stop worker deploy deploy-script drills clean
@@ -89,13 +90,14 @@ server-postgres: $(STAMP) ## PostgreSQL (Debian's) in PG_DIR on PG_PORT, then a 
 postgres-stop: ## stop the PostgreSQL that make server-postgres started
 	$(PY) -m rescene_core.ops.postgres stop --dir $(PG_DIR)
 
-worker: $(STAMP) ## start a process worker on the local pool
+worker: $(STAMP) ## start a process worker on the local pool (its flow runs send heartbeats every HEARTBEAT_S)
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
-	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect worker start --pool $(POOL)
+	PREFECT_API_URL=$(PREFECT_API_URL) PREFECT_FLOWS_HEARTBEAT_FREQUENCY=$(HEARTBEAT_S) $(VENV)/bin/prefect worker start --pool $(POOL)
 
 deploy: $(STAMP) ## register the rescene/scene and split deployments with the server (prefect deploy)
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect work-pool create $(POOL) --type process --overwrite >/dev/null
 	PREFECT_API_URL=$(PREFECT_API_URL) $(VENV)/bin/prefect --no-prompt deploy --all --prefect-file deployments/prefect.yaml
+	PREFECT_API_URL=$(PREFECT_API_URL) $(PY) -c "from deployments.deploy import ensure_crash_detection as e; e(90)"
 
 deploy-script: $(STAMP) ## the same deployments through the Python API (fallback for make deploy)
 	PREFECT_API_URL=$(PREFECT_API_URL) $(PY) deployments/deploy.py --prefect-file deployments/prefect.yaml

@@ -43,7 +43,7 @@ def pg_stack(tmp_path_factory, request):
     from prefect.client.orchestration import get_client
     from prefect.client.schemas.actions import GlobalConcurrencyLimitCreate, WorkPoolCreate
 
-    from deployments.deploy import load_deployments, register
+    from deployments.deploy import ensure_crash_detection, load_deployments, register
     from rescene_core.ops import postgres
     from tests.flows.prefect_server import (
         POOL,
@@ -55,7 +55,7 @@ def pg_stack(tmp_path_factory, request):
         stop_after_last_use,
         wait_healthy,
     )
-    from tests.ops.helpers import HEARTBEAT_S, crash_silent_flow_runs, fake_stage_env, start_named_worker
+    from tests.ops.helpers import HEARTBEAT_S, fake_stage_env, start_named_worker
 
     try:
         postgres.bin_dir()
@@ -80,7 +80,7 @@ def pg_stack(tmp_path_factory, request):
         client.create_global_concurrency_limit(GlobalConcurrencyLimitCreate(name="vlm-ops", limit=1))
         (scene,) = [d for d in load_deployments(REPO / "deployments" / "prefect.yaml") if d["name"] == "scene"]
         register(scene)
-        client.create_automation(crash_silent_flow_runs(HEARTBEAT_S + 15))
+        assert ensure_crash_detection(HEARTBEAT_S + 15)
     calls = tmp / "vlm-calls"
     worker_env = {**env, **fake_stage_env(tmp, calls), "RESCENE_VLM_LIMIT": "vlm-ops"}
     worker_env["PREFECT_FLOWS_HEARTBEAT_FREQUENCY"] = str(HEARTBEAT_S)

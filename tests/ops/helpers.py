@@ -131,38 +131,6 @@ HEARTBEAT_S = 30
 """Seconds between a flow run's heartbeats in the drills (Prefect's least)."""
 
 
-def crash_silent_flow_runs(within_s: int):
-    """The automation Prefect documents for zombie flow runs (docs.prefect.io, "detect zombie flows"): a flow
-    run that sent a heartbeat and then neither another nor a final state within ``within_s`` seconds is
-    set Crashed by the server."""
-    from datetime import timedelta
-
-    from prefect.client.schemas.objects import StateType
-    from prefect.events.actions import ChangeFlowRunState
-    from prefect.events.schemas.automations import AutomationCore, EventTrigger, Posture
-    from prefect.events.schemas.events import ResourceSpecification
-
-    return AutomationCore(
-        name="crash-silent-flow-runs",
-        trigger=EventTrigger(
-            after={"prefect.flow-run.heartbeat"},
-            expect={
-                "prefect.flow-run.heartbeat",
-                "prefect.flow-run.Completed",
-                "prefect.flow-run.Failed",
-                "prefect.flow-run.Cancelled",
-                "prefect.flow-run.Crashed",
-            },
-            match=ResourceSpecification({"prefect.resource.id": ["prefect.flow-run.*"]}),
-            for_each={"prefect.resource.id"},
-            posture=Posture.Proactive,
-            threshold=1,
-            within=timedelta(seconds=within_s),
-        ),
-        actions=[ChangeFlowRunState(state=StateType.CRASHED, message="no heartbeat: the flow run's process is gone")],
-    )
-
-
 def fake_stage_env(tmp: Path, call_log: Path | None = None) -> dict[str, str]:
     """The environment that makes a worker's flow runs use the stage fakes (``SITECUSTOMIZE``)."""
     site = tmp / "site"
