@@ -92,12 +92,17 @@ def init_cluster(data_dir: str | Path) -> Path:
 
 def start(data_dir: str | Path, port: int) -> str:
     """Initialise (first time) and start the cluster in ``data_dir`` on 127.0.0.1:``port``, wait until it
-    accepts connections, create the database ``prefect`` once; returns its URL (``database_url``)."""
+    accepts connections, create the database ``prefect`` once; returns its URL (``database_url``). A
+    server already running there on that port is used as it is; on another port it is an error."""
     data = init_cluster(data_dir)
     if is_running(data):
+        running = _running_port(data)
+        if running == port:
+            print(f"PostgreSQL already runs on {data}, port {port}", file=sys.stderr)
+            return database_url(port)
         raise PostgresError(
-            f"a PostgreSQL server already runs on {data} (see {data / 'postmaster.pid'} for its pid and port); "
-            f"stop it first (python -m rescene_core.ops.postgres stop --dir {data_dir}) or use it as it is"
+            f"a PostgreSQL server already runs on {data} on port {running}, not {port}; stop it first "
+            f"(python -m rescene_core.ops.postgres stop --dir {data_dir}) or use port {running}"
         )
     options = f"-p {port} -k {data} -c listen_addresses=127.0.0.1 -c max_connections=200"
     _run(
@@ -110,6 +115,14 @@ def start(data_dir: str | Path, port: int) -> str:
         ok_if="already exists",
     )
     return database_url(port)
+
+
+def _running_port(data: Path) -> int | None:
+    """The port in the running server's ``postmaster.pid`` (its fourth line)."""
+    try:
+        return int((data / "postmaster.pid").read_text().splitlines()[3])
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def is_running(data_dir: str | Path) -> bool:
