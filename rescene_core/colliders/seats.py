@@ -43,6 +43,12 @@ SUPPORT_MATCH = 0.03
 """A support plane within this distance (m) of a child's bottom is the board the child stands on."""
 
 
+SEAT_FLOOR_PROBE = 0.005
+"""After a seat is cut, the parent still carries a child that rests on it when its pieces hold the points of
+the child's foot this far (m) below its bottom; where they hold none (the cut went through a panel thinner
+than the seat, as a hollow shell's top), the seat gets a floor: a board across the seat at the child's bottom."""
+
+
 def _surface_samples(place: Placement) -> NDArray[np.float64]:
     """World points of the mesh's surface: its vertices, face centres and 4000 area-weighted samples."""
     mesh = trimesh.Trimesh(place.world(place.vertices), place.faces, process=False)
@@ -100,7 +106,8 @@ def seat_children(
     off = parent.translation
     work: list[Piece] = [((parent.rotation @ v.T).T, f) for v, f in pieces]  # world-oriented, origin at the body
     samples, mesh = None, None
-    for child in children:
+    children_list = list(children)
+    for child in children_list:
         cw = np.vstack([child.place.world(child.place.vertices)] + [child.place.world(v) for v, _ in child.pieces])
         bottom, top = float(cw[:, 2].min()), float(cw[:, 2].max())
         ring = footprint_ring(cw[:, :2], CARVE_MARGIN)
@@ -131,18 +138,30 @@ def seat_children(
                 continue
             work = carved
             entries.append({**entry, "cut": True, "why": why})
+            foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
+            if child.direct and board is None and not _holds(work, foot, bottom, off):
+                # the floor spans the whole seat, not only the foot: a footing added later may widen the
+                # child's base past its lowest points
+                siblings = [s.place.world(s.place.vertices) for s in children_list if s is not child]
+                near = np.vstack(
+                    [p for p in ([others] if others is not None else []) + siblings if len(p)] or [np.zeros((0, 3))]
+                )
+                piece = _foot_board(ring, bottom, off, near)
+                if piece is not None:
+                    work.append(piece)
+                    boards.append(
+                        {
+                            "child": child.node,
+                            "height_m": round(bottom, 4),
+                            "support_plane_m": None,
+                            "why": "the seat went through the parent's pieces under a child seen resting on it: "
+                            f"a floor {BOARD_THICKNESS * 100:g} cm thick across the seat at the child's bottom",
+                        }
+                    )
         foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
         fring = footprint_ring(foot[:, :2], 0.0)
         if board is not None and not Polygon(fring).within(board[1]):  # the foot reaches past the board
-            fring = fring - off[:2]
-            level = bottom - off[2]
-            slab = np.vstack(
-                [np.c_[fring, np.full(len(fring), level)], np.c_[fring, np.full(len(fring), level - BOARD_THICKNESS)]]
-            )
-            piece = hull_piece(slab)
-            if piece is not None and others is not None and len(others):
-                if inside_piece(others, (piece[0] + off, piece[1])).any():
-                    piece = None  # a neighbour stands there: the board is not the child's alone
+            piece = _foot_board(fring, bottom, off, others)
             if piece is not None:
                 work.append(piece)
                 boards.append(
@@ -155,3 +174,24 @@ def seat_children(
                     }
                 )
     return [((parent.rotation.T @ v.T).T, f) for v, f in work], entries, boards
+
+
+def _holds(work: list[Piece], foot: NDArray, bottom: float, off: NDArray) -> bool:
+    """Whether any of the parent's pieces (world-oriented, origin at the body ``off``) holds a point of the
+    child's ``foot`` (world [n, 3]) ``SEAT_FLOOR_PROBE`` below the child's ``bottom``."""
+    probe = np.c_[foot[:, :2], np.full(len(foot), bottom - SEAT_FLOOR_PROBE)] - off
+    return any(inside_piece(probe, piece, tolerance=1e-6).any() for piece in work)
+
+
+def _foot_board(fring: NDArray, bottom: float, off: NDArray, others: NDArray | None) -> Piece | None:
+    """A slab ``BOARD_THICKNESS`` thick under a ring (world xy [k, 2]: a foot, a seat) with its top at ``bottom``,
+    in the parent's world-oriented frame; None where it is degenerate or a neighbour's geometry (``others``,
+    world [n, 3]) reaches into it (the board would not be the child's alone)."""
+    ring = fring - off[:2]
+    level = bottom - off[2]
+    slab = np.vstack([np.c_[ring, np.full(len(ring), level)], np.c_[ring, np.full(len(ring), level - BOARD_THICKNESS)]])
+    piece = hull_piece(slab)
+    if piece is not None and others is not None and len(others):
+        if inside_piece(others, (piece[0] + off, piece[1])).any():
+            return None
+    return piece

@@ -87,6 +87,28 @@ def test_a_child_inside_its_parents_mesh_is_left_unless_a_support_plane_is_at_it
     assert not any(trimesh.Trimesh(v, f).contains(probe)[0] for v, f in pieces)
 
 
+def test_a_seat_cut_through_a_thin_top_panel_keeps_a_floor_under_the_child():
+    # a desk's hollow shell: a 2.2 cm top panel (0.967-0.989 m) over an empty inside; a lamp whose generated
+    # base stands 1.2 cm lower (0.955 m), in a dip of the desk's top, so the panel runs through the lamp
+    desk = _box([-0.6, -0.3, 0.0], [0.6, 0.3, 0.989])
+    panel = _box([-0.6, -0.3, 0.967], [0.6, 0.3, 0.989])
+    lamp = _box([-0.05, -0.05, 0.955], [0.05, 0.05, 1.25])
+    seated = [Seated("obj_2_lamp", _place(lamp), [_piece(lamp)], True)]
+    pieces, seats, boards = seat_children(_place(desk), [_piece(panel)], seated, hollow=True)
+    assert seats[0]["cut"] is True
+    (floor,) = boards
+    assert floor["child"] == "obj_2_lamp" and floor["height_m"] == pytest.approx(0.955)
+    assert floor["support_plane_m"] is None and "floor" in floor["why"]
+    below_foot = np.array([[0.0, 0.0, 0.95], [0.04, -0.04, 0.95]])
+    assert all(any(trimesh.Trimesh(v, f).contains(below_foot[i : i + 1])[0] for v, f in pieces) for i in range(2))
+    assert not any(trimesh.Trimesh(v, f).contains([[0.0, 0.0, 0.97]])[0] for v, f in pieces)  # the seat is cut
+    # a child resting on one of the parent's children gets no floor from the parent
+    _, _, none = seat_children(
+        _place(desk), [_piece(panel)], [Seated("x", _place(lamp), [_piece(lamp)], False)], hollow=True
+    )
+    assert none == []
+
+
 def test_pieces_that_fill_a_concavity_under_a_child_are_carved():
     # a tray: its mesh dips 5 cm where the cup stands, its single convex piece fills the dip
     tray = trimesh.boolean.difference(
