@@ -102,8 +102,14 @@ def overlay_ids(view: FrameView, font_px: int = 0) -> tuple[Image.Image, list[La
     return image.convert("RGB"), sorted(placements, key=lambda p: p.display)
 
 
+PNG_COMPRESS_LEVEL = 1
+"""zlib level of the overlay PNGs: lossless at any level; level 1 encodes a 640x480 overlay in about 0.09 s
+where the default 6 took 0.7 s (17 s of a standard run's relations stage, under load), for files about a
+sixth larger."""
+
+
 def png_bytes(image: Image.Image) -> bytes:
-    """The image encoded as PNG."""
+    """The image encoded as PNG (lossless; ``PNG_COMPRESS_LEVEL``)."""
     buf = io.BytesIO()
-    image.save(buf, format="PNG")
+    image.save(buf, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
     return buf.getvalue()
