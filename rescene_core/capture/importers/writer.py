@@ -169,7 +169,7 @@ def finish_import(
 
     if masks.min() < 0 or masks.max() > np.iinfo(np.int32).max:
         raise ImportInputError(f"{frames.src}: instance ids outside 0..2^31-1; renumber the instance PNGs")
-    masks = masks.astype(np.int32)
+    masks = masks.astype(np.int32, copy=False)  # the masks of a long scan are not copied
     counts = np.bincount(masks.ravel())
     present = [int(i) for i in np.flatnonzero(counts) if i > 0]
     structural = {i for i in present if labels.get(i, ("object", False))[1]}
@@ -245,7 +245,7 @@ def finish_import(
         point_offsets=offsets,
         points=points,
         colors=colors,
-        depth=frames.depth.astype(np.float32),
+        depth=frames.depth.astype(np.float32, copy=False),
         source=source,
         extra_attrs={
             "alignment": alignment.to_json(),
