@@ -10,6 +10,7 @@ from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 from prefect.results import ResultRecord
@@ -153,8 +154,8 @@ def start_named_worker(env: dict[str, str], name: str, log: Path, limit: int = 2
         )  # fmt: skip
 
 
-def max_overlap(intervals: list[tuple[float, float]]) -> int:
-    """The most intervals (start, end) open at one instant."""
+def max_overlap(intervals: list[tuple[Any, Any]]) -> int:
+    """The most intervals (start, end), seconds or datetimes, open at one instant."""
     events = sorted([(s, 1) for s, _ in intervals] + [(e, -1) for _, e in intervals], key=lambda x: (x[0], x[1]))
     open_now = best = 0
     for _, step in events:

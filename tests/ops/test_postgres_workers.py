@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import shutil
 import time
+from datetime import datetime
 
 import pyarrow.parquet as pq
 import pytest
@@ -70,3 +71,9 @@ def test_split_of_six_on_two_workers_over_postgres(pg_stack, box_capture_path):
     assert len(calls) == 2 * SCENES
     assert len({c["pid"] for c in calls}) >= 2
     assert max_overlap([(c["start"], c["end"]) for c in calls]) == 1
+    # ... while the flow runs themselves overlapped (the server's records), so the limit had work to do
+    spans = []
+    for r in rows:
+        run = httpx.get(f"{api}/flow_runs/{r['flow_run_id']}", timeout=10).json()
+        spans.append((datetime.fromisoformat(run["start_time"]), datetime.fromisoformat(run["end_time"])))
+    assert max_overlap(spans) >= 2, spans
