@@ -118,6 +118,8 @@ class SegmentConfig(BaseModel):
     """A flush object hangs at least this far above the floor and below the ceiling (a door does not) (m)."""
     flush_max_extent: float = 2.5
     """A flush object is smaller than this in its largest dimension (m); larger ones are the wall."""
+    enclosed_fraction: float = 0.9
+    """Regions parted by creases alone join again when this share of the smaller lies within the larger's bounds."""
     leg_width: float = 0.12
     """An upright part narrower than this (m) is a leg or a post of what it touches."""
     min_segment_points: int = 60
@@ -145,6 +147,8 @@ class SegmentConfig(BaseModel):
     """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
     sliver_thickness: float = 0.05
     """... when it is also thinner than this across the plane (5-95 percentile), unlike a monitor (m)."""
+    wall_piece_height: float = 1.8
+    """An upright sheet at least this tall is wall (a stretch the plane search missed, a door), not an object (m)."""
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
     seed: int = 0
@@ -465,9 +469,58 @@ def merge_superpoints(
         "flush_superpoints": int(flush.sum()),
     }
     region = _absorb_small(g, region, cfg)
+    near_structure = _structure_distance(g.centroid, planes) < cfg.structure_band
+    region, stats["rejoined_enclosed"] = _rejoin_enclosed(
+        g, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
+    )
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
     return region, which, stats
+
+
+def _rejoin_enclosed(
+    g: SuperpointGraph,
+    region: NDArray[np.int64],
+    creased: NDArray[np.bool_],
+    near_structure: NDArray[np.bool_],
+    cfg: SegmentConfig,
+) -> tuple[NDArray[np.int64], int]:
+    """Regions parted only by creases (``creased`` [p]: contacts cut for their concavity alone) join again
+    when the smaller lies within the larger's bounds (``enclosed_fraction`` of its points by superpoint
+    centroid, bounds grown by ``support_band``): the shelves inside a bookcase's frame, the mattress inside
+    a bed's frame. A lamp on a nightstand rises above it and stays apart, and nothing joins a region lying
+    mostly along the structure (``near_structure`` [s]: superpoints by a wall, the floor or the ceiling),
+    whose bounds span a wall. Returns the regions and how many joined."""
+    region = region.copy()
+    joined = 0
+    for _ in range(3):
+        n = int(region.max()) + 1
+        lo = np.full((n, 3), np.inf)
+        hi = np.full((n, 3), -np.inf)
+        np.minimum.at(lo, region, g.lo)
+        np.maximum.at(hi, region, g.hi)
+        pts = np.bincount(region, g.count, n)
+        along = np.bincount(region, g.count * near_structure, n) >= 0.5 * pts
+        ra, rb = region[g.pairs[creased, 0]], region[g.pairs[creased, 1]]
+        ok = (ra > 0) & (rb > 0) & (ra != rb)
+        cand = {(min(a, b), max(a, b)) for a, b in zip(ra[ok].tolist(), rb[ok].tolist(), strict=True)}
+        remap = np.arange(n)
+        changed = False
+        for a, b in sorted(cand):
+            small, big = (a, b) if pts[a] < pts[b] else (b, a)
+            if remap[small] != small or remap[big] != big or along[big] or along[small]:
+                continue  # one of them joined another region in this round
+            mine = region == small
+            c = g.centroid[mine]
+            inside = np.all((c >= lo[big]) & (c <= hi[big]), axis=1)
+            if (g.count[mine] * inside).sum() >= cfg.enclosed_fraction * pts[small]:
+                remap[small] = big
+                joined += 1
+                changed = True
+        region = remap[region]
+        if not changed:
+            break
+    return region, joined
 
 
 def _absorb_small(g: SuperpointGraph, region: NDArray[np.int64], cfg: SegmentConfig) -> NDArray[np.int64]:
@@ -515,6 +568,20 @@ def _structure_distance(p: NDArray, planes: list[dict[str, Any]]) -> NDArray[np.
         elif plane["kind"] == "ceiling":
             dist = np.minimum(dist, np.abs(p[:, 2] - plane["height"]))
     return dist
+
+
+def _is_wall_piece(p: NDArray, cfg: SegmentConfig) -> bool:
+    """A region [k, 3] that is one upright sheet (under ``sliver_thickness`` thick across its flattest
+    direction, which is horizontal) and at least ``wall_piece_height`` tall: a stretch of wall the plane
+    search missed, or a door; no piece of furniture is a sheet that tall."""
+    if np.ptp(p[:, 2]) < cfg.wall_piece_height or len(p) < 10:
+        return False
+    centred = p - p.mean(axis=0)
+    normal = np.linalg.svd(centred, full_matrices=False)[2][-1]
+    if abs(normal[2]) > np.sin(np.radians(cfg.vertical_tolerance_deg)):
+        return False
+    across = centred @ normal
+    return bool(np.subtract(*np.percentile(across, [95, 5])) < cfg.sliver_thickness)
 
 
 def _filter_regions(
@@ -571,6 +638,9 @@ def _filter_regions(
                 nxt += 1
             else:
                 counts["wall_patches"] += 1
+            continue
+        if _is_wall_piece(p, cfg):
+            counts["joined_structure"] += 1
             continue
         dist = _structure_distance(p, planes)
         sliver = bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)

@@ -52,7 +52,6 @@ def frame_votes(
     [T, 4, 4] (OpenCV axes), depth [T, H, W] metres (0 invalid) or None (no occlusion test). A pixel's
     centre is at (u + 0.5, v + 0.5), as in the project's renderer. Superpoints with fewer than
     ``min_seen`` visible points in a frame cast no vote there."""
-    n_sp = int(label.max()) + 1 if len(label) else 0
     homog = np.c_[points, np.ones(len(points))]
     keys, counts_all = [], []
     for t, mask in enumerate(masks):
@@ -90,7 +89,6 @@ def frame_votes(
     seen = np.add.reduceat(counts, np.flatnonzero(first))
     best = triples[first]
     keep = seen >= min_seen
-    del n_sp
     return FrameVotes(
         best[keep, 0], best[keep, 1], best[keep, 2], (counts[first] / np.maximum(seen, 1))[keep], seen[keep]
     )
