@@ -25,6 +25,12 @@ capture saw it (``evidence.evidence_refuses``). Instead:
    only what its view showed; attachment completes the rest the same way whatever the backend (a generator
    that did invent the body down to the floor leaves no gap, and gets no base).
 
+4. Support bases (``propagate.support_with_base``): an object resting on another whose support correction
+   the evidence refused (lowering its mesh would leave its observed points outside it) while those points
+   reach down to the support's level: a lamp whose generated mesh is its shade without the stem, registered
+   on the shade's points above a nightstand. The base fills from the support's top up into the mesh, under
+   the points seen below the mesh, as item 2 does down to the floor.
+
 A base is the generator's missing part, not something the capture saw whole, so it never takes space from a
 neighbour: its outline is cut back (``clear_of_neighbours``) wherever another object (not one it carries or
 rests on) has its mesh or a base below the base's top, a nightstand beside a bed whose points spread under
@@ -92,15 +98,18 @@ def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray
     return pose, taken
 
 
-def _outline(state: LayoutState, i: InstanceId, verts: NDArray, bottom: float) -> Polygon | None:
+def _outline(
+    state: LayoutState, i: InstanceId, verts: NDArray, bottom: float, band: float = BASE_LOW_BAND
+) -> Polygon | None:
     """Horizontal outline (world xy) of the base of object i, whose world vertices are ``verts`` [v, 3] with
-    their lowest point ``bottom`` m above the floor (see the module docstring)."""
+    their lowest point ``bottom`` m above the floor (see the module docstring); ``band``: how far (m) above
+    the bottom the observed points that outline it may reach."""
     room, obj = state.room, state.objects[i]
     mesh_fp = footprint(verts)
     outline = None
     if obj.points is not None and len(obj.points):
         pts = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
-        low = pts[room.floor_distance(pts) < bottom + BASE_LOW_BAND]
+        low = pts[room.floor_distance(pts) < bottom + band]
         low = low[shapely.contains_xy(mesh_fp.buffer(0.02), low[:, 0], low[:, 1])]
         if len(low) >= BASE_MIN_POINTS:
             hull = MultiPoint(low[:, :2]).convex_hull
@@ -226,44 +235,57 @@ def seen_only_from_above(state: LayoutState, i: InstanceId) -> float | None:
 
 def add_bases(state: LayoutState) -> None:
     """Add a base completion to every object in ``state.base_wanted`` that its final pose leaves above the
-    floor (module docstring, items 2 and 3)."""
+    floor (module docstring, items 2 and 3), and to every object in ``state.support_base_wanted`` that it
+    leaves above its support's level (item 4)."""
     room = state.room
     if abs(room.up[2]) < 1e-9:
         return
     for i, reason in sorted(state.base_wanted.items()):
-        verts = cut_vertices(state, i)
-        bottom = float(room.floor_distance(verts).min())
-        if bottom < BASE_MIN_GAP:
-            continue
-        top = bottom + BASE_OVERLAP
-        seen_low = seen_only_from_above(state, i)
-        outline: Polygon | None
-        if seen_low is None:
-            outline = _outline(state, i, verts, bottom)
-        else:
-            outline, top = footprint(verts), max(top, seen_low)
-            reason = (
-                f"seen only from above (its observed points within {state.config.amodal_top_band_m:g} m of its top, "
-                f"the lowest {seen_low:.2f} m above the floor): amodal completion, its body down to the floor "
-                "under its whole footprint"
-            )
-        if outline is None:
-            continue
-        outline, cleared = clear_of_neighbours(state, i, outline, top)
-        if outline is None:
-            state.log(i, "completions", "no base", reason="neighbours fill the space under the object")
-            continue
-        if cleared:
-            state.log(i, "completions", "base clear of neighbours", cuts=len(cleared))
-        ring = np.asarray(outline.exterior.coords)[:-1]
-        flat = np.c_[ring, np.zeros(len(ring))]
-        offset = room.floor_distance(flat)  # height of z = 0 above the floor at each ring point
-        up_z = float(room.up[2])
-        floor_ring = np.c_[ring, -offset / up_z]
-        top_ring = np.c_[ring, (top - offset) / up_z]
-        world = np.vstack([floor_ring, top_ring])
-        points_asset = apply(inverse(state.pose(i)), world)
-        state.add_completion(Completion(i, CompletionKind.BASE, points_asset, reason))
+        _add_base(state, i, reason, 0.0, on_floor=True)
+    for i, (parent, above_parent_bottom, reason) in sorted(state.support_base_wanted.items()):
+        level = float(room.floor_distance(state.vertices(parent)).min()) + above_parent_bottom
+        _add_base(state, i, reason, level, on_floor=False)
+
+
+def _add_base(state: LayoutState, i: InstanceId, reason: str, level: float, on_floor: bool) -> None:
+    """A base under object i from ``level`` (m above the floor: 0, or its support's top) up BASE_OVERLAP
+    into its mesh, when its final pose leaves a gap of at least BASE_MIN_GAP. On the floor an object seen
+    only from above gets its whole footprint (item 3); on a support the base is outlined by the points seen
+    below the mesh only (a stem, not the shade's rim)."""
+    room = state.room
+    verts = cut_vertices(state, i)
+    bottom = float(room.floor_distance(verts).min())
+    if bottom - level < BASE_MIN_GAP:
+        return
+    top = bottom + BASE_OVERLAP
+    seen_low = seen_only_from_above(state, i) if on_floor else None
+    outline: Polygon | None
+    if seen_low is None:
+        outline = _outline(state, i, verts, bottom, BASE_LOW_BAND if on_floor else 0.0)
+    else:
+        outline, top = footprint(verts), max(top, seen_low)
+        reason = (
+            f"seen only from above (its observed points within {state.config.amodal_top_band_m:g} m of its top, "
+            f"the lowest {seen_low:.2f} m above the floor): amodal completion, its body down to the floor "
+            "under its whole footprint"
+        )
+    if outline is None:
+        return
+    outline, cleared = clear_of_neighbours(state, i, outline, top)
+    if outline is None:
+        state.log(i, "completions", "no base", reason="neighbours fill the space under the object")
+        return
+    if cleared:
+        state.log(i, "completions", "base clear of neighbours", cuts=len(cleared))
+    ring = np.asarray(outline.exterior.coords)[:-1]
+    flat = np.c_[ring, np.zeros(len(ring))]
+    offset = room.floor_distance(flat)  # height of z = 0 above the floor at each ring point
+    up_z = float(room.up[2])
+    low_ring = np.c_[ring, (level - offset) / up_z]
+    top_ring = np.c_[ring, (top - offset) / up_z]
+    world = np.vstack([low_ring, top_ring])
+    points_asset = apply(inverse(state.pose(i)), world)
+    state.add_completion(Completion(i, CompletionKind.BASE, points_asset, reason))
 
 
 CONTACT_BAND = 0.01

@@ -24,16 +24,17 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from rescene_core.assembly.compile_wall import resolve_walls
-from rescene_core.assembly.completions import bounded_floor_snap
+from rescene_core.assembly.completions import BASE_MIN_GAP, BASE_MIN_POINTS, bounded_floor_snap
 from rescene_core.assembly.dispatch import compile_edge
 from rescene_core.assembly.evidence import evidence_refuses, wall_gap
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
-from rescene_core.geometry.sim3 import inverse, scale_by_confidence
+from rescene_core.geometry.sim3 import apply, inverse, scale_by_confidence
 from rescene_core.records import Edge, InstanceId, Relation, Root
 
 
@@ -117,6 +118,8 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         if refused is not None:
             keep_registered(state, child)
             state.skip(child, stage, refused)
+            if "level_height_m" in info and not isinstance(edge.parent, Root):
+                support_with_base(state, child, edge.parent, edge, float(info["level_height_m"]))
             continue
         over = state.over_bound(child, parent_delta @ update) if "wall_id" in info else None
         if over is not None:
@@ -237,3 +240,40 @@ def floor_with_base(
             "the object's observed points keep its generated mesh above the floor it rests on "
             f"({taken:.0%} of the floor snap taken): a base fills the gap"
         )
+
+
+SUPPORT_REACH = 0.03
+"""An object kept above its support reaches it when at least BASE_MIN_POINTS of its observed points (within
+this distance, m, of its mesh's footprint) lie within this distance of the support's level and as many
+between there and its mesh's bottom (a stem seen whole, not a few points bled from the support)."""
+
+
+def support_with_base(state: LayoutState, child: InstanceId, parent: InstanceId, edge: Edge, level: float) -> None:
+    """``child`` keeps its registered pose above ``parent`` (``edge``'s; the support correction would leave its observed
+    points outside its mesh); when its mesh hangs above the support ``level`` (m above the floor) and its
+    observed points reach down to it, the generated mesh lacks its lower part (a lamp's stem): a base from
+    the support up into the mesh is wanted (``completions.add_bases``), recorded against the parent's
+    lowest point so it follows the parent's later moves."""
+    if not has_evidence(state, child) or edge.confidence < state.config.contact_closure_min_confidence:
+        return
+    room, obj = state.room, state.objects[child]
+    bottom = float(room.floor_distance(state.vertices(child)).min())
+    if bottom - level < BASE_MIN_GAP:
+        return
+    pts = apply(state.pose(child) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
+    fp = footprint(state.vertices(child)).buffer(SUPPORT_REACH)
+    pts = pts[shapely.contains_xy(fp, pts[:, 0], pts[:, 1])]
+    h = room.floor_distance(pts)
+    at_support = int(np.count_nonzero(np.abs(h - level) <= SUPPORT_REACH))
+    between = int(np.count_nonzero((h > level + SUPPORT_REACH) & (h < bottom)))
+    if at_support < BASE_MIN_POINTS or between < BASE_MIN_POINTS:
+        return  # the capture did not see the object reach down to its support: no base is evidence-derived
+    seen_low = float(h[np.abs(h - level) <= SUPPORT_REACH].min())
+    parent_bottom = float(room.floor_distance(state.vertices(parent)).min())
+    state.support_base_wanted[child] = (
+        parent,
+        level - parent_bottom,
+        f"the object's observed points reach down to its support ({seen_low:.3f} m, the support at {level:.3f} m) "
+        f"but its generated mesh ends {bottom - level:.3f} m above it, and the support correction would leave "
+        "its points outside its mesh: a base fills the gap",
+    )

@@ -132,10 +132,13 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
                 merged.wall_of.pop(i, None)
                 merged.completions.pop(i, None)
                 merged.base_wanted.pop(i, None)
+                merged.support_base_wanted.pop(i, None)
                 if i in floor.completions:
                     merged.completions[i] = list(floor.completions[i])
                 if i in floor.base_wanted:
                     merged.base_wanted[i] = floor.base_wanted[i]
+                if i in floor.support_base_wanted:
+                    merged.support_base_wanted[i] = floor.support_base_wanted[i]
             merged.log(root, "dual attachment", "keep floor-only", reason=reason, members=[int(i) for i in members])
             switched = True
         elif differs:

@@ -53,6 +53,10 @@ class LayoutState:
     base_wanted: dict[InstanceId, str] = field(default_factory=dict)
     """Objects resting on the floor whose mesh the evidence keeps above it (a generated mesh lacking its
     lower part), with the reason: they get a base at their final pose (completions.add_bases)."""
+    support_base_wanted: dict[InstanceId, tuple[InstanceId, float, str]] = field(default_factory=dict)
+    """Objects resting on another whose support correction the evidence refused while their observed points
+    reach down to it (a lamp whose generated mesh lacks its stem): the parent, the support level (m above
+    the parent's lowest point) and the reason; they get a base down to that level (completions.add_bases)."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
     _anchor: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
@@ -75,6 +79,7 @@ class LayoutState:
             self.unfit,
             {k: list(v) for k, v in self.completions.items()},
             dict(self.base_wanted),
+            dict(self.support_base_wanted),
         )
 
     def add_completion(self, completion: Completion) -> None:
