@@ -80,7 +80,12 @@ def test_instances_execute_in_ray_worker_processes(prefect_server, box_capture_p
 
     from flows.scene import run_flow
 
-    ray.init(num_cpus=2, include_dashboard=False, runtime_env={"worker_process_setup_hook": install_fakes})
+    from tests.flows.prefect_server import REPO
+
+    # Ray's workers start in a folder of their own: the repository on their path, for this module's hook
+    path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)
+    runtime_env = {"worker_process_setup_hook": install_fakes, "env_vars": {"PYTHONPATH": path}}
+    ray.init(num_cpus=2, include_dashboard=False, runtime_env=runtime_env)
     try:
         address = ray.get_runtime_context().gcs_address
         state = run_flow(box_capture_path, tmp_path / "run", runner="ray", address=address)
