@@ -79,7 +79,6 @@ def test_instances_execute_in_ray_worker_processes(prefect_server, box_capture_p
     import ray
 
     from flows.scene import run_flow
-
     from tests.flows.prefect_server import REPO
 
     # Ray's workers start in a folder of their own: the repository on their path, for this module's hook
