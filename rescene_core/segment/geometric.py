@@ -9,11 +9,14 @@
    ``superpoint_voxel``, are over-segmented by Felzenszwalb-Huttenlocher on normals and colour, as
    ScanNet's mesh segmentation does.
 4. Region merging (``merge_superpoints``): touching superpoints join unless their contact is a concave
-   crease across a change of colour (a lamp standing on a nightstand, a chair seat meeting a table's
-   edge), a strong change of colour, or a support contact (a body standing on a horizontal top and
-   narrower than it: what spans the top is its own back or headboard). Wall superpoints stay wall unless
-   their colour differs from the wall's or they stand proud of it: a picture, a mirror or a TV flush with
-   a wall becomes an object. Regions too small, too large or that are slivers of a wall are dropped.
+   crease (a lamp standing on a nightstand, a chair seat meeting a table's edge), a strong change of
+   colour, or a support contact (a body standing on a horizontal top and narrower than it: what spans the
+   top is its own back or headboard). Small pieces and thin upright ones (legs) join what they touch most;
+   regions parted by creases alone join again when one lies within the other's bounds (shelves in a
+   bookcase). Wall superpoints stay wall unless their colour differs from the wall's or they stand proud
+   of it; such a region hanging clear of the floor and ceiling with a sharp outline or a depth step is a
+   flush object (a picture, a mirror, a TV). Regions too small, too large, upright sheets as tall as a
+   wall and slivers of the structure are dropped.
 5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
@@ -103,7 +106,8 @@ class SegmentConfig(BaseModel):
     concave_fraction: float = 0.65
     """Share of concave edges that makes a contact a crease..."""
     concave_colour_step: float = 0.0
-    """... that separates two superpoints when their mean colours differ by at least this (RGB distance / sqrt 3)."""
+    """... that separates two superpoints when their mean colours also differ by at least this (RGB distance /
+    sqrt 3; 0: every crease separates, since touching objects of one colour are common)."""
     colour_cut: float = 0.22
     """Touching superpoints whose mean colours differ by this much are never joined (RGB distance / sqrt 3)."""
     flush_colour_step: float = 0.12
