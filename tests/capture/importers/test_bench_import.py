@@ -21,7 +21,12 @@ def test_import_suite_measures_round_trips_gravity_and_segmentation(tmp_path, mo
     assert set(seed["round_trip"]) == {"panoptic", "scannet", "nerfstudio"}
     assert result["summary"]["round_trip_exact"] is True
     assert seed["gravity"]["floor_normal_error_deg"] < 1.0
-    assert 0.0 <= seed["segmentation"]["recall_large"] <= 1.0
+    for mode in ("geometric", "masks"):
+        seg = seed["segmentation"][mode]
+        assert 0.0 <= seg["recall_large"] <= 1.0 and seg["seconds"] > 0
+        assert 0 <= seg["touching_pairs_apart"] <= seg["touching_pairs"]
+        assert len(seg["touching_pairs_merged"]) == seg["touching_pairs"] - seg["touching_pairs_apart"]
+    assert result["summary"]["development"]["masks"]["recall_large"] == seed["segmentation"]["masks"]["recall_large"]
     assert "skipped" in result["real_sample"]
     text = importers.table(result)
-    assert "label-free segmentation" in text and "no real sample" in text
+    assert "segmentation: set | seed | mode" in text and "development masks" in text and "no real sample" in text
