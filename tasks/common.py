@@ -117,7 +117,44 @@ class StageInputs(CachePolicy):
             },
             sort_keys=True,
         )
-        return f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
+        key = f"{self.stage}-{hashlib.sha256(blob.encode()).hexdigest()[:32]}"
+        if "run_dir" in inputs:
+            drop_record_of_lost_output(Path(inputs["run_dir"]), key)
+        return key
+
+
+REF_CLASS = f"{Ref.__module__}.{Ref.__qualname__}"
+
+
+def _ref_paths(value: Any) -> Iterator[str]:
+    """The ``path`` of every serialised Ref in a decoded task result (a Ref, or lists and dicts of them)."""
+    if isinstance(value, dict):
+        if value.get("__class__") == REF_CLASS and isinstance(value.get("data"), dict):
+            yield str(value["data"].get("path", ""))
+        else:
+            for v in value.values():
+                yield from _ref_paths(v)
+    elif isinstance(value, list):
+        for v in value:
+            yield from _ref_paths(v)
+
+
+def drop_record_of_lost_output(run_dir: Path, key: str) -> Path | None:
+    """Remove the cache record ``key`` of ``run_dir`` when a file its result refers to no longer exists (an
+    output deleted by hand, or a run directory copied without it), so the task runs again instead of
+    returning a reference to nothing; returns the lost file, None when the record is sound or absent. A
+    record that cannot be read is left to Prefect, which runs the task when it cannot load it."""
+    record = run_dir / RESULTS_DIR / key
+    try:
+        result = json.loads(json.loads(record.read_text())["result"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    for rel in _ref_paths(result):
+        target = run_dir / rel
+        if rel and not target.exists():
+            record.unlink(missing_ok=True)
+            return target
+    return None
 
 
 def task_of(spec: StageSpec) -> Task[..., Any]:
