@@ -25,6 +25,8 @@ from numpy.typing import NDArray
 
 from rescene_core.capture import CaptureArrays, points_to_csr, write_capture
 from rescene_core.capture.synth import SynthScene, make_scene
+from rescene_core.export import ExportObject
+from rescene_core.geometry import sim3
 from rescene_core.geometry.camera import look_at
 from rescene_core.records import Camera, Instance, InstanceId, Plane, RoomShell, WallPlane
 from rescene_core.render import Light, Renderer, RenderMesh, Shading
@@ -71,6 +73,13 @@ CORNER_SHELL = RoomShell(
     ceiling_height=2.5,
 )
 """The same room with a second wall along x = -2, meeting the first in a corner."""
+
+
+def export_box(instance: int, label: str, centre, extents=(0.4, 0.4, 0.4)):
+    """An ExportObject: a box of ``extents`` (m) centred at world ``centre`` [3], unrotated, scale 1 (the
+    physics checks' tests)."""
+    box = trimesh.creation.box(extents)
+    return ExportObject(instance, label, box.vertices, box.faces, sim3.sim3_from_parts(1.0, np.eye(3), centre))
 
 
 def pinhole(width: int, height: int, focal: float) -> NDArray[np.float64]:

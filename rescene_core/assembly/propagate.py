@@ -257,11 +257,12 @@ def support_with_base(state: LayoutState, child: InstanceId, parent: InstanceId,
     if not has_evidence(state, child) or edge.confidence < state.config.contact_closure_min_confidence:
         return
     room, obj = state.room, state.objects[child]
-    bottom = float(room.floor_distance(state.vertices(child)).min())
+    verts = state.vertices(child)
+    bottom = float(room.floor_distance(verts).min())
     if bottom - level < BASE_MIN_GAP:
         return
     pts = apply(state.pose(child) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
-    fp = footprint(state.vertices(child)).buffer(SUPPORT_REACH)
+    fp = footprint(verts).buffer(SUPPORT_REACH)
     pts = pts[shapely.contains_xy(fp, pts[:, 0], pts[:, 1])]
     h = room.floor_distance(pts)
     at_support = int(np.count_nonzero(np.abs(h - level) <= SUPPORT_REACH))

@@ -114,6 +114,7 @@ def seat_children(
         local = ring - off[:2]
         carved, depth = carve(work, local, bottom - off[2], top + CARVE_MARGIN - off[2])
         board = next((b for b in boards_xy if abs(b[0] - bottom) <= SUPPORT_MATCH), None) if child.direct else None
+        foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
         if depth > 1e-4:
             if samples is None:
                 samples = _surface_samples(parent)
@@ -138,15 +139,13 @@ def seat_children(
                 continue
             work = carved
             entries.append({**entry, "cut": True, "why": why})
-            foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
             if child.direct and board is None and not _holds(work, foot, bottom, off):
                 # the floor spans the whole seat, not only the foot: a footing added later may widen the
-                # child's base past its lowest points
-                siblings = [s.place.world(s.place.vertices) for s in children_list if s is not child]
-                near = np.vstack(
-                    [p for p in ([others] if others is not None else []) + siblings if len(p)] or [np.zeros((0, 3))]
-                )
-                piece = _foot_board(ring, bottom, off, near)
+                # child's base past its lowest points; it keeps out of neighbours and the other children
+                near = [s.place.world(s.place.vertices) for s in children_list if s is not child]
+                if others is not None:
+                    near.append(others)
+                piece = _foot_board(ring, bottom, off, np.vstack(near) if near else None)
                 if piece is not None:
                     work.append(piece)
                     boards.append(
@@ -158,7 +157,6 @@ def seat_children(
                             f"a floor {BOARD_THICKNESS * 100:g} cm thick across the seat at the child's bottom",
                         }
                     )
-        foot = cw[cw[:, 2] <= bottom + SEAT_FOOT]
         fring = footprint_ring(foot[:, :2], 0.0)
         if board is not None and not Polygon(fring).within(board[1]):  # the foot reaches past the board
             piece = _foot_board(fring, bottom, off, others)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import io
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -122,12 +123,24 @@ def penetrations(model, data) -> tuple[dict[int, float], tuple[int, int] | None,
     return depth, worst_pair, worst
 
 
-def _shake(config: SimcheckConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def room_shake(config: SimcheckConfig) -> Callable[[float], np.ndarray]:
+    """The room's horizontal acceleration [2] (m/s^2) at time t (s) of ``config``'s shake: a sum of
+    sinusoids with seeded directions and phases under a half-sine envelope, zero after ``shake_seconds``.
+    An engine simulates it as ``gravity[:2] - shake(t)`` in the room's frame (the module doc)."""
     rng = np.random.default_rng(config.seed)
     angles = rng.uniform(0, 2 * np.pi, size=len(config.shake_hz))
     phases = rng.uniform(0, 2 * np.pi, size=len(config.shake_hz))
     dirs = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return dirs, phases, 2 * np.pi * np.asarray(config.shake_hz, np.float64)
+    omegas = 2 * np.pi * np.asarray(config.shake_hz, np.float64)
+
+    def shake(t: float) -> np.ndarray:
+        if t >= config.shake_seconds:
+            return np.zeros(2)
+        envelope = np.sin(np.pi * t / config.shake_seconds)
+        amp = config.shake_accel / len(omegas) * envelope * np.sin(omegas * t + phases)
+        return (amp[:, None] * dirs).sum(axis=0)
+
+    return shake
 
 
 def classify(
@@ -205,16 +218,10 @@ def simcheck(mjcf: str | Path, shell: RoomShell | None, config: SimcheckConfig) 
     start_quat = {b: data.xquat[b].copy() for b in names}
     gravity = model.opt.gravity.copy()
     steps = int(round(config.seconds / model.opt.timestep))
-    dirs, phases, omegas = _shake(config)
+    shake = room_shake(config)
     for k in range(steps):
         if config.shake:
-            t = k * model.opt.timestep
-            if t < config.shake_seconds:
-                envelope = np.sin(np.pi * t / config.shake_seconds)
-                amp = config.shake_accel / len(omegas) * envelope * np.sin(omegas * t + phases)
-                model.opt.gravity[:2] = gravity[:2] - (amp[:, None] * dirs).sum(axis=0)
-            else:
-                model.opt.gravity[:] = gravity
+            model.opt.gravity[:2] = gravity[:2] - shake(k * model.opt.timestep)
         mujoco.mj_step(model, data)
     model.opt.gravity[:] = gravity
     if not np.isfinite(data.qpos).all():

@@ -33,7 +33,7 @@ from rescene_core.exported_scene import ExportedScene
 from rescene_core.io import read_json, write_json_atomic
 from rescene_core.paths import RunPaths
 from rescene_core.records import RoomShell
-from rescene_core.sim.check import SimcheckResult, _shake, classify, summarise
+from rescene_core.sim.check import SimcheckResult, classify, room_shake, summarise
 
 OBJECTS_ROOT = "/World/Objects/"
 PENETRATION_NOTED_M = 0.002  # a t=0 overlap deeper than this is named as a reason two engines disagree
@@ -138,7 +138,7 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
     body_node = [_node_of(label) for label in labels]
     pieces: dict[str, int] = {}
     friction: dict[str, float] = {}
-    fixed_nodes: list[str] = []
+    fixed_nodes: dict[str, None] = {}  # in the order the importer made them, each once
     shape_mu = model.shape_material_mu.numpy()
     for label, body, flags, mu in zip(model.shape_label, shape_body, shape_flags, shape_mu, strict=True):
         node = _node_of(label)
@@ -146,8 +146,8 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
             continue
         pieces[node] = pieces.get(node, 0) + 1
         friction[node] = round(min(friction.get(node, np.inf), float(mu)), 4)
-        if body < 0 and node not in fixed_nodes:
-            fixed_nodes.append(node)
+        if body < 0:
+            fixed_nodes[node] = None
     masses = model.body_mass.numpy()
     mass: dict[str, float | None] = {n: None for n in fixed_nodes}
     mass.update({n: float(m) for n, m in zip(body_node, masses, strict=True) if n is not None})
@@ -169,16 +169,12 @@ def newton_simcheck(usd: str | Path, shell: RoomShell | None, config: SimcheckCo
     start = _centres(q_start, com)
     solver = newton.solvers.SolverXPBD(model, iterations=NEWTON_ITERATIONS)
     gravity = model.gravity.numpy().copy()
-    dirs, phases, omegas = _shake(config)
+    shake = room_shake(config)
     steps = int(round(config.seconds / dt))
     for k in range(steps):
         if config.shake:
-            t = k * dt
             g = gravity.copy()
-            if t < config.shake_seconds:
-                envelope = np.sin(np.pi * t / config.shake_seconds)
-                amp = config.shake_accel / len(omegas) * envelope * np.sin(omegas * t + phases)
-                g[:, :2] = gravity[:, :2] - (amp[:, None] * dirs).sum(axis=0)
+            g[:, :2] = gravity[:, :2] - shake(k * dt)
             model.gravity.assign(g)
         state0.clear_forces()
         pipeline.collide(state0, contacts)

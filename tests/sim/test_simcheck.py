@@ -4,33 +4,25 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
-import trimesh
 
-from rescene_core.export import ExportConfig, ExportObject, export_scene
-from rescene_core.geometry import sim3
+from rescene_core.export import ExportConfig, export_scene
 from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
 from rescene_core.sim import SimcheckConfig, SimcheckSummary, simcheck_run
-from tests.fixtures import ONE_WALL_SHELL
+from tests.fixtures import ONE_WALL_SHELL, export_box
 
 pytest.importorskip("mujoco")
 
 SHELL = ONE_WALL_SHELL
 
 
-def _box(instance, label, centre, extents=(0.4, 0.4, 0.4)):
-    box = trimesh.creation.box(extents)
-    return ExportObject(instance, label, box.vertices, box.faces, sim3.sim3_from_parts(1.0, np.eye(3), centre))
-
-
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
     run = tmp_path_factory.mktemp("run")
     objects = [
-        _box(1, "cabinet", [0.0, 0.0, 0.2005]),  # resting: stable
-        _box(2, "cabinet", [1.0, 0.0, 0.5]),  # floating 0.3 m: falls
-        _box(3, "cabinet", [-1.0, 0.5, 0.19]),  # sunk 1 cm into the floor
+        export_box(1, "cabinet", [0.0, 0.0, 0.2005]),  # resting: stable
+        export_box(2, "cabinet", [1.0, 0.0, 0.5]),  # floating 0.3 m: falls
+        export_box(3, "cabinet", [-1.0, 0.5, 0.19]),  # sunk 1 cm into the floor
     ]
     graph = SceneGraph(tuple(Edge(InstanceId(i), Relation.RESTS_ON, Root.FLOOR) for i in (1, 2, 3)))
     export_scene(run / "scene", objects, SHELL, graph, [], ExportConfig(decomposition_cache=str(run / "cache")))
