@@ -9,14 +9,27 @@ temporary server of its own."""
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 
 import pytest
 
+
+def _throwaway_dir(variable: str, prefix: str) -> None:
+    """Point ``variable`` at a fresh temporary folder, removed when the test process exits, unless the caller
+    set it (a folder the caller chose is theirs to keep)."""
+    if variable in os.environ:
+        return
+    path = tempfile.mkdtemp(prefix=prefix)
+    os.environ[variable] = path
+    atexit.register(shutil.rmtree, path, ignore_errors=True)
+
+
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
-os.environ.setdefault("PREFECT_HOME", tempfile.mkdtemp(prefix="rescene-prefect-home-"))
-os.environ.setdefault("RESCENE_CACHE_DIR", tempfile.mkdtemp(prefix="rescene-cache-"))
+_throwaway_dir("PREFECT_HOME", "rescene-prefect-home-")
+_throwaway_dir("RESCENE_CACHE_DIR", "rescene-cache-")
 
 
 @pytest.fixture
