@@ -70,7 +70,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         with progress:
-            state = scene_flow.run_flow(capture, run_dir)
+            state = scene_flow.run_flow(capture, run_dir, _demo_config())
     finally:
         scene_flow.PROGRESS_LISTENERS.remove(on_instance)
     seconds = time.perf_counter() - start
@@ -85,8 +85,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             console.print(f"vqa: {vqa['questions']} questions over {len(vqa['views'])} rendered views")
         except VqaInputError as err:
             console.print(f"vqa: skipped ({err})")
-    if run.scene_usda.exists() and run.simcheck.exists():
-        _newton_check(run_dir, console)
+    if run.simcheck_newton.exists():
+        _newton_summary(run.simcheck_newton, console)
     print("where to look:")
     looks = [
         ("scene (open in any glTF viewer)", run.scene_glb),
@@ -109,19 +109,24 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0 if state.is_completed() else 1
 
 
-def _newton_check(run_dir: Path, console: Console) -> None:
-    """The second engine on the USD (the `newton` extra), compared with the flow's MuJoCo check."""
-    from rescene_core.sim.newton_check import NewtonUnavailable, newton_simcheck_run
+def _demo_config():
+    """The default run config, with the physics check also run in Newton when the ``newton`` extra is installed
+    (the demo shows both engines and where they disagree; a plain ``rescene run`` leaves it off)."""
+    from importlib.util import find_spec
 
-    try:
-        with console.status("checking scene.usda in Newton, the second physics engine"):
-            record = newton_simcheck_run(run_dir)
-    except NewtonUnavailable as err:
-        console.print(f"newton: skipped ({err})")
-        return
-    except RuntimeError as err:  # the Newton simulation diverged
-        console.print(f"newton: failed ({err})")
-        return
+    from rescene_core.config import RunConfig
+
+    config = RunConfig()
+    if find_spec("newton") is None:
+        return config
+    return config.model_copy(update={"sim": config.sim.model_copy(update={"newton": True})})
+
+
+def _newton_summary(path: Path, console: Console) -> None:
+    """One line on the flow's Newton check of the USD, beside its MuJoCo check."""
+    from rescene_core.io import read_json
+
+    record = read_json(path)
     s = record["summary"]
     differ = record.get("disagreements", [])
     console.print(

@@ -186,3 +186,7 @@ class SimcheckConfig(_Section):
     """Frequencies of the two sinusoids of the shake (Hz). Default: the project's choice."""
     seed: int = 0
     """Seed of the shake's phases and directions. Default: the project's choice."""
+    newton: bool = False
+    """Also check scene/scene.usda in Newton, the second engine (the ``newton`` extra), in the same stage:
+    sim/simcheck-newton.json, with the objects where the engines disagree. Off by default: it adds about as
+    much time as the MuJoCo check. Default: the project's choice."""

@@ -5,7 +5,8 @@ inlined from ``node_modules/@google/model-viewer/dist/model-viewer.min.js``; the
 URL, +Y up as glTF wants, walls cut low so that the furniture shows from outside), the plan (the fused
 graph over the top-down plan), a contact sheet of the key frames, before / after (registered vs attached)
 views, rendered vs captured frames, the metrics tables, one row per object with its problems, the
-physics check (``sim/simcheck.json``, or "not run"), and what was not computed and why.
+physics check (``sim/simcheck.json``, or "not run"; Newton's beside it with the objects where the two engines
+disagree, when ``sim/simcheck-newton.json`` exists), and what was not computed and why.
 Nothing is fetched at view time: every image is a data: URL.
 """
 
@@ -183,6 +184,36 @@ def _physics(metrics: dict[str, Any]) -> str:
     return out
 
 
+def _physics_newton(metrics: dict[str, Any]) -> str:
+    """Newton's check of the USD beside MuJoCo's: both stable fractions, then each object they disagree on
+    with both drifts and the reasons the comparison found."""
+    newton = metrics.get("physics_newton")
+    if not newton:
+        reason = metrics.get("not_computed", {}).get("physics_newton", "not run")
+        return f'<p class="notrun">Newton check: not run ({html.escape(reason)}).</p>'
+    s_newton = newton.get("summary", {})
+    s_mujoco = (metrics.get("physics") or {}).get("summary", {})
+    rows = [
+        [engine, s.get("stable"), s.get("free"), s.get("stable_fraction"), s.get("penetration_t0_max")]
+        for engine, s in (("MuJoCo (scene/mjcf/scene.xml)", s_mujoco), ("Newton (scene/scene.usda)", s_newton))
+        if s
+    ]
+    out = _table(["engine", "stable", "free objects", "stable fraction", "t=0 penetration max (m)"], rows)
+    differ = newton.get("disagreements")
+    if differ is None:
+        return out + "<p>No comparison: the MuJoCo check is missing or ran with other settings.</p>"
+    if not differ:
+        return out + "<p>The two engines agree on every free object.</p>"
+    out += f"<h3>Where the engines disagree ({len(differ)})</h3>"
+    return out + _table(
+        ["object", "MuJoCo drift (m)", "Newton drift (m)", "why"],
+        [
+            [d.get("node"), d.get("drift_mujoco"), d.get("drift_newton"), "; ".join(d.get("reasons", []))]
+            for d in differ
+        ],
+    )
+
+
 def _scene_table(metrics: dict[str, Any]) -> str:
     geo = metrics.get("geometry", {})
     rows = []
@@ -355,6 +386,7 @@ def render_report_html(run_dir: str | Path, metrics: dict[str, Any], capture: An
         keys = [k for k, v in st.items() if isinstance(v, int | float) or v is None]
         parts.append("<h2>Structure</h2>" + _table(["metric", "value"], [[k, st[k]] for k in keys]))
     parts.append("<h2>Physics</h2>" + _physics(metrics))
+    parts.append("<h2>Physics in a second engine</h2>" + _physics_newton(metrics))
     parts.append(
         "<h2>Objects</h2>"
         + _table(

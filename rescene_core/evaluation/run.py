@@ -4,7 +4,8 @@ Reads the exported scene (``scene/scene.json`` and ``scene/objects/``) and the c
 structural metrics (``structural``), metrics against ground truth when the capture has it
 (``ground_truth``), geometry (``geometry``: against ground truth, and against the sensor's own depth
 when the capture has depth), rendering fidelity (``rendering``), the physics check's results when
-``sim/simcheck.json`` exists, and the perceptual judge when an endpoint is configured (``judge``).
+``sim/simcheck.json`` exists (and Newton's, ``physics_newton``, when ``sim/simcheck-newton.json`` does), and
+the perceptual judge when an endpoint is configured (``judge``).
 docs/evaluation.md describes the metrics.
 """
 
@@ -175,6 +176,16 @@ def evaluate_run(
             not_computed["physics"] = f"{physics} is not valid JSON: {err}"
     else:
         not_computed["physics"] = "no sim/simcheck.json (run `rescene simcheck RUN`)"
+    newton = RunPaths(run_dir).simcheck_newton
+    if newton.exists():
+        try:
+            metrics["physics_newton"] = read_json(newton)
+        except ValueError as err:
+            not_computed["physics_newton"] = f"{newton} is not valid JSON: {err}"
+    else:
+        not_computed["physics_newton"] = (
+            "no sim/simcheck-newton.json (`--set sim.newton=true` in the flow, or `rescene simcheck RUN --engine newton`)"
+        )
 
     if doc is not None and cap is not None:
         t0, c0 = time.perf_counter(), time.process_time()

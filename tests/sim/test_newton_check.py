@@ -102,3 +102,33 @@ def test_without_newton_the_error_says_how_to_install(monkeypatch, run_dir):
 def test_missing_usd_is_a_clear_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="export the scene first"):
         newton_simcheck_run(tmp_path)
+
+
+def test_the_flow_stage_runs_newton_when_asked_and_the_report_shows_where_the_engines_differ(
+    run_dir, tmp_path, monkeypatch
+):
+    """``sim.newton``: the physics stage writes sim/simcheck-newton.json beside MuJoCo's check, and the
+    evaluation report puts both engines side by side with the disagreeing object and its reasons. Without
+    the extra, the stage keeps MuJoCo's result and the report says why Newton did not run."""
+    import shutil
+
+    from rescene_core.evaluation.report_html import _physics_newton
+    from rescene_core.stages import simcheck as stage
+
+    run = tmp_path / "run"
+    shutil.copytree(run_dir / "scene", run / "scene")
+    stage.run(str(run), None, SimcheckConfig(seconds=1.0, newton=True))
+    record = json.loads((run / "sim/simcheck-newton.json").read_text())
+    assert [d["node"] for d in record["disagreements"]] == ["obj_3_cabinet"]
+    page = _physics_newton({"physics": json.loads((run / "sim/simcheck.json").read_text()), "physics_newton": record})
+    assert "Newton (scene/scene.usda)" in page and "MuJoCo (scene/mjcf/scene.xml)" in page
+    assert "Where the engines disagree (1)" in page and "obj_3_cabinet" in page and "penetrating 10" in page
+
+    def unavailable(*args, **kwargs):
+        raise NewtonUnavailable("the Newton engine needs the `newton` extra")
+
+    monkeypatch.setattr("rescene_core.sim.newton_check.newton_simcheck_run", unavailable)
+    stage.run(str(run), None, SimcheckConfig(seconds=1.0, newton=True))
+    assert (run / "sim/simcheck.json").exists() and not (run / "sim/simcheck-newton.json").exists()
+    page = _physics_newton({"not_computed": {"physics_newton": "no sim/simcheck-newton.json"}})
+    assert "Newton check: not run" in page
