@@ -117,3 +117,18 @@ def test_seeded_open3d_rng_seeds_the_engine_and_is_held_by_one_thread_at_a_time(
     for t in threads:
         t.join(10)
     assert order == ["holder done", "waiter in"]
+
+
+def test_seeded_open3d_rng_runs_open3d_on_one_thread_and_restores_the_limit():
+    """Open3D's parallel RANSAC hands the engine's draws to whichever worker thread is free, so a seeded
+    plane fit differed from call to call (the room shell's floor offset on the standard capture); inside
+    the block Open3D runs on one thread, and the limit in force before comes back after it, also on error."""
+    import open3d as o3d
+
+    before = o3d.utility.get_max_threads()
+    with seeded_open3d_rng(3):
+        assert o3d.utility.get_max_threads() == 1
+    assert o3d.utility.get_max_threads() == before
+    with pytest.raises(RuntimeError), seeded_open3d_rng(3):
+        raise RuntimeError("a failing fit")
+    assert o3d.utility.get_max_threads() == before
