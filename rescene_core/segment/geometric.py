@@ -119,13 +119,19 @@ class SegmentConfig(BaseModel):
     """... and, over a whole region on a wall, the mean colour step across its outline against the wall
     (RGB distance / sqrt 3) that makes it a picture or a poster, unless it stands ``flush_offset`` proud."""
     flush_min_height: float = 0.3
-    """A flush object hangs at least this far above the floor and below the ceiling (a door does not) (m)."""
+    """A flush object hangs at least this far above the floor (a door does not) (m)..."""
+    flush_ceiling_gap: float = 0.1
+    """... and at least this far below the ceiling (a wall clock hangs higher than a picture; the rounded
+    corner where a wall meets the ceiling does not) (m)."""
     flush_max_extent: float = 2.5
     """A flush object is smaller than this in its largest dimension (m); larger ones are the wall."""
     enclosed_fraction: float = 0.9
     """Regions parted by creases alone join again when this share of the smaller lies within the larger's bounds."""
     leg_width: float = 0.12
     """An upright part narrower than this (m) is a leg or a post of what it touches."""
+    leg_max_width: float = 0.16
+    """An upright region narrower than this one way (m), standing near the floor with its upper end just under
+    a broader region, is a leg or a side panel of it (fused legs are fatter than ``leg_width``)."""
     min_segment_points: int = 60
     """Fewest thinned points of an object segment; smaller regions join their most touching neighbour."""
     min_segment_extent: float = 0.1
@@ -415,6 +421,9 @@ def wall_superpoints(
     which[on < 0.5] = 0
     flush = np.zeros(n, bool)
     extent = (g.hi - g.lo).max(axis=1)
+    # a superpoint that reaches down to the floor or up to the ceiling is no part of a flush object (a door
+    # of the wood of a mirror's frame beside it would take the mirror into the wall)
+    hangs = (g.lo[:, 2] >= cfg.flush_min_height) & (g.hi[:, 2] <= _ceiling_height(planes) - cfg.flush_ceiling_gap)
     for plane in planes:
         if plane["kind"] != "wall":
             continue
@@ -426,8 +435,42 @@ def wall_superpoints(
         proud = proud / np.maximum(np.bincount(g.label[mine], minlength=n), 1)
         step = np.linalg.norm(g.colour - wall_colour, axis=1) / np.sqrt(3.0)
         cand = (which == plane["id"]) & ((step >= cfg.flush_colour_step) | (proud >= cfg.flush_offset))
-        flush |= cand & (extent <= cfg.flush_max_extent)
+        flush |= cand & hangs & (extent <= cfg.flush_max_extent)
+    # a hanging superpoint off every plane but lying wholly within ``structure_band`` in front of a wall,
+    # along its stretch, is a piece of something hung on it (a clock's rim and face stand 2-4 cm proud,
+    # beyond the plane's reach): a flush candidate on that wall, so its pieces join as one
+    near = _near_wall(sp, planes, cfg)
+    off = (which == 0) & (near > 0) & hangs & (extent <= cfg.flush_max_extent)
+    which[off] = near[off]
+    flush |= off
     return which, flush
+
+
+def _near_wall(sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig) -> NDArray[np.int64]:
+    """Per superpoint [s]: the wall (id) all of whose points lie within ``structure_band`` in front of its
+    plane and along its stretch, 0 when none."""
+    g = sp.graph
+    n = g.size
+    near = np.zeros(n, np.int64)
+    for plane in planes:
+        if plane["kind"] != "wall":
+            continue
+        normal = np.asarray(plane["normal"])
+        horiz = np.cross(normal, [0.0, 0.0, 1.0])
+        horiz /= np.linalg.norm(horiz)
+        dist = sp.points @ normal + plane["offset"]
+        along = sp.points @ horiz
+        lo, hi = plane["span"]
+        inside = (dist > -cfg.plane_distance) & (dist < cfg.structure_band) & (along >= lo) & (along <= hi)
+        outside_count = np.bincount(g.label, (~inside).astype(float), n)
+        near[(outside_count == 0) & (near == 0)] = int(plane["id"])
+    return near
+
+
+def _ceiling_height(planes: list[dict[str, Any]]) -> float:
+    """Height of the ceiling plane (m), infinite when none was found."""
+    ceiling = [float(p["height"]) for p in planes if p["kind"] == "ceiling"]
+    return ceiling[0] if ceiling else float(np.inf)
 
 
 def _support_cut(
@@ -472,10 +515,16 @@ def merge_superpoints(
         "cut_support": int(cut_support.sum()),
         "flush_superpoints": int(flush.sum()),
     }
+    # flush pieces on one wall parted by colour join when one lies within the other's bounds: a picture's
+    # canvas in its frame, a mirror's glass in its frame, a clock's face in its rim (a clock hung just above
+    # a picture lies beside it and stays apart)
+    hung = flush[a] & flush[b] & (which[a] == which[b]) & (g.contacts >= cfg.min_contacts) & ~join
+    region, stats["rejoined_flush"] = _rejoin_enclosed(sp, region, hung, np.zeros(n, bool), cfg, by_extent=True)
     region = _absorb_small(g, region, cfg)
+    region, stats["legs_attached"] = _attach_legs(sp, region, cfg)
     near_structure = _structure_distance(g.centroid, planes) < cfg.structure_band
     region, stats["rejoined_enclosed"] = _rejoin_enclosed(
-        g, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
+        sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
     )
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
@@ -483,20 +532,25 @@ def merge_superpoints(
 
 
 def _rejoin_enclosed(
-    g: SuperpointGraph,
+    sp: ScanPoints,
     region: NDArray[np.int64],
     creased: NDArray[np.bool_],
     near_structure: NDArray[np.bool_],
     cfg: SegmentConfig,
+    by_extent: bool = False,
 ) -> tuple[NDArray[np.int64], int]:
     """Regions parted only by creases (``creased`` [p]: contacts cut for their concavity alone) join again
     when the smaller lies within the larger's bounds (``enclosed_fraction`` of its points by superpoint
-    centroid, bounds grown by ``support_band``): the shelves inside a bookcase's frame, the mattress inside
-    a bed's frame. A lamp on a nightstand rises above it and stays apart, and nothing joins a region lying
-    mostly along the structure (``near_structure`` [s]: superpoints by a wall, the floor or the ceiling),
-    whose bounds span a wall. Returns the regions and how many joined."""
+    centroid): the shelves inside a bookcase's frame, the mattress inside a bed's frame. Nothing joins a
+    region lying mostly along the structure (``near_structure`` [s]: superpoints by a wall, the floor or the
+    ceiling), whose bounds span a wall, nor a region standing on a top of the larger one (``_rests_on``: a
+    book stack on a shelf, a lamp on a nightstand). The smaller of two is the one with fewer points, or with
+    ``by_extent`` the one with the shorter bounding-box diagonal (a picture's canvas has more points than
+    its frame). Returns the regions and how many joined."""
+    g = sp.graph
     region = region.copy()
     joined = 0
+    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
     for _ in range(3):
         n = int(region.max()) + 1
         lo = np.full((n, 3), np.inf)
@@ -508,23 +562,91 @@ def _rejoin_enclosed(
         ra, rb = region[g.pairs[creased, 0]], region[g.pairs[creased, 1]]
         ok = (ra > 0) & (rb > 0) & (ra != rb)
         cand = {(min(a, b), max(a, b)) for a, b in zip(ra[ok].tolist(), rb[ok].tolist(), strict=True)}
+        # the upward-facing points of each region, for the test of what stands on what
+        point_region = region[g.label]
+        up_idx = np.flatnonzero(up & (point_region > 0))
+        up_idx = up_idx[np.argsort(point_region[up_idx], kind="stable")]
+        up_bounds = np.searchsorted(point_region[up_idx], np.arange(n + 1))
         remap = np.arange(n)
         changed = False
+        size = np.linalg.norm(hi - lo, axis=1) if by_extent else pts
         for a, b in sorted(cand):
-            small, big = (a, b) if pts[a] < pts[b] else (b, a)
+            small, big = (a, b) if size[a] < size[b] else (b, a)
             if remap[small] != small or remap[big] != big or along[big] or along[small]:
                 continue  # one of them joined another region in this round
             mine = region == small
             c = g.centroid[mine]
             inside = np.all((c >= lo[big]) & (c <= hi[big]), axis=1)
-            if (g.count[mine] * inside).sum() >= cfg.enclosed_fraction * pts[small]:
-                remap[small] = big
-                joined += 1
-                changed = True
+            if (g.count[mine] * inside).sum() < cfg.enclosed_fraction * pts[small]:
+                continue
+            tops = sp.points[up_idx[up_bounds[big] : up_bounds[big + 1]]]
+            if not by_extent and _rests_on(tops, lo[small], hi[small], lo[big], hi[big], cfg):
+                continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
+            remap[small] = big
+            joined += 1
+            changed = True
         region = remap[region]
         if not changed:
             break
     return region, joined
+
+
+def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether a region with bounds ``lo``, ``hi`` [3] (m) stands on an upward-facing surface of a larger one
+    (``tops`` [k, 3]: its points whose normal is within 15 degrees of up; bounds ``big_lo``, ``big_hi``):
+    some of those points lie under its footprint at its lowest height (within ``support_band``), the top is
+    higher than ``support_min_height``, the region is at least twice ``support_band`` thick every way (no board
+    or panel), and it is narrower
+    than the larger region both ways (a mattress spans its bed's frame and stays with it)."""
+    if min(hi - lo) < 2 * cfg.support_band or lo[2] < cfg.support_min_height - cfg.support_band:
+        return False  # a board or a panel of the larger one, not a body on it
+    if np.any(hi[:2] - lo[:2] >= cfg.support_span_fraction * (big_hi[:2] - big_lo[:2])):
+        return False
+    under = np.all((tops[:, :2] >= lo[:2] - cfg.support_band) & (tops[:, :2] <= hi[:2] + cfg.support_band), axis=1)
+    under &= np.abs(tops[:, 2] - lo[2]) <= cfg.support_band
+    return int(under.sum()) >= cfg.min_contacts
+
+
+def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
+    """Slender upright regions (narrower than ``leg_max_width`` one way or both, twice as tall as that) whose
+    upper end lies just under a broader region join it: the legs and side panels of a table or a desk, cut
+    off at the crease under its top, or parted from it by a gap the fusion left. The broader region has
+    ``min_contacts`` points or more above the upright's footprint (grown by ``support_band``) between
+    ``support_band`` below its upper end and three times that above, and its bounds contain that footprint.
+    Returns the regions and how many joined."""
+    g = sp.graph
+    region = region.copy()
+    n = int(region.max()) + 1
+    point_region = region[g.label]
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, region, g.lo)
+    np.maximum.at(hi, region, g.hi)
+    span = hi - lo
+    narrow = span[:, :2].min(axis=1)
+    slender = (narrow <= cfg.leg_max_width) & (span[:, 2] >= 2 * narrow) & (np.arange(n) > 0)
+    slender &= lo[:, 2] <= cfg.support_min_height  # it stands on the floor, or nearly
+    joined = 0
+    remap = np.arange(n)
+    band = cfg.support_band
+    for r in np.flatnonzero(slender).tolist():
+        near = np.all((sp.points[:, :2] >= lo[r, :2] - band) & (sp.points[:, :2] <= hi[r, :2] + band), axis=1)
+        near &= (sp.points[:, 2] >= hi[r, 2] - band) & (sp.points[:, 2] <= hi[r, 2] + 3 * band)
+        owners = point_region[near]
+        owners = owners[(owners > 0) & (owners != r)]
+        if len(owners) < cfg.min_contacts:
+            continue
+        top = int(np.bincount(owners).argmax())
+        if np.bincount(owners)[top] < cfg.min_contacts or slender[top]:
+            continue
+        inside = np.all(lo[top, :2] - band <= lo[r, :2]) and np.all(hi[r, :2] <= hi[top, :2] + band)
+        if inside and hi[top, 2] > hi[r, 2] + band:
+            remap[r] = top
+            joined += 1
+    # a leg joins a top that may itself have joined another: follow the chain
+    for _ in range(3):
+        remap = remap[remap]
+    return remap[region], joined
 
 
 def _absorb_small(g: SuperpointGraph, region: NDArray[np.int64], cfg: SegmentConfig) -> NDArray[np.int64]:
@@ -588,6 +710,11 @@ def _is_wall_piece(p: NDArray, cfg: SegmentConfig) -> bool:
     return bool(np.subtract(*np.percentile(across, [95, 5])) < cfg.sliver_thickness)
 
 
+def _rim_step(g: SuperpointGraph, rim: NDArray[np.bool_]) -> float:
+    """Mean colour step (RGB distance / sqrt 3) over the graph edges of the contacts ``rim`` [p]."""
+    return float((g.step[rim] * g.contacts[rim]).sum() / max(int(g.contacts[rim].sum()), 1))
+
+
 def _filter_regions(
     sp: ScanPoints,
     region: NDArray[np.int64],
@@ -624,16 +751,16 @@ def _filter_regions(
             continue
         walls, n_on = np.unique(sp.wall[idx], return_counts=True)
         wall = int(walls[np.argmax(n_on)])
+        hangs = p[:, 2].min() >= cfg.flush_min_height and p[:, 2].max() <= top - cfg.flush_ceiling_gap
+        # the colour step right across its outline, against the wall around it: a picture's edge is
+        # sharp, a shading gradient on the paint is not
+        inside = region[g.pairs[:, 0]] == r
+        outside = region[g.pairs[:, 1]] == r
+        rim_wall = np.where(inside, which_wall[g.pairs[:, 1]], which_wall[g.pairs[:, 0]])
         if wall > 0 and n_on.max() >= 0.5 * len(idx):
             n, d = normals[wall]
             proud = float(np.median(p @ n + d))
-            hangs = p[:, 2].min() >= cfg.flush_min_height and p[:, 2].max() <= top - cfg.flush_min_height
-            # the colour step right across its outline, against the wall around it: a picture's edge is
-            # sharp, a shading gradient on the paint is not
-            inside = region[g.pairs[:, 0]] == r
-            outside = region[g.pairs[:, 1]] == r
-            rim = (inside ^ outside) & (np.where(inside, which_wall[g.pairs[:, 1]], which_wall[g.pairs[:, 0]]) == wall)
-            edge = float((g.step[rim] * g.contacts[rim]).sum() / max(g.contacts[rim].sum(), 1))
+            edge = _rim_step(g, (inside ^ outside) & (rim_wall == wall))
             # with masks the region is already a consensus of views: hanging clear is enough
             apart = flush_by_masks or edge >= cfg.flush_edge_step or proud >= cfg.flush_offset
             if hangs and ext <= cfg.flush_max_extent and apart:
@@ -649,13 +776,12 @@ def _filter_regions(
         dist = _structure_distance(p, planes)
         sliver = bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)
         sliver &= bool(np.percentile(dist, 95) < cfg.sliver_thickness)
-        if (
-            sliver
-            and flush_by_masks
-            and p[:, 2].min() >= cfg.flush_min_height
-            and p[:, 2].max() <= top - cfg.flush_min_height
-        ):
-            sliver = False  # the masks see it apart from its wall: a picture the wall planes did not take
+        if sliver and hangs:
+            # a thin region hanging on a wall off its plane (a wall clock, a mirror's frame): an object when
+            # the masks see it apart, or when it stands proud of the wall or its outline steps in colour
+            edge = _rim_step(g, (inside ^ outside) & (rim_wall > 0))
+            if flush_by_masks or edge >= cfg.flush_edge_step or float(np.median(dist)) >= cfg.flush_offset:
+                sliver = False
         if sliver:
             counts["joined_structure"] += 1
             continue
