@@ -1,7 +1,9 @@
 """``attach``: the staged attachment solver (paper Sec. 3.4 and Appendix 'Attachment and Layout Refinement').
 
-Stages, in order: relational layer (floor snap, wall resolution, wall attachment and object support, all
-by propagation in topological order), room/wall repair (near-wall snap, outside repair, bed-wall,
+Before the stages, generated meshes are cut where they reach through the floor or a wall beyond their points,
+where a parent is taller than what stands on it, and where two of them overlap at their registered poses in
+space only one was seen in (``trim.py``). Stages, in order: relational layer (floor snap, wall resolution,
+wall attachment and object support, all by propagation in topological order), room/wall repair (near-wall snap, outside repair, bed-wall,
 cabinet corner, then generated children re-seated on their parents' faces), then depenetration and a last containment check,
 and (after the branches are merged) each generated object's step back toward its registered place as far as
 its contacts allow (``restore.py``). ``AttachmentConfig.stop_after`` ends
@@ -44,7 +46,7 @@ from rescene_core.assembly.refine import (
 from rescene_core.assembly.restore import restore_toward_evidence
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.trim import cut_overlaps, room_cuts, top_cuts, trimmed
+from rescene_core.assembly.trim import cut_overlaps, cut_registered_overlaps, room_cuts, top_cuts, trimmed
 from rescene_core.assembly.wall_evidence import turn_to_wall_evidence
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
@@ -223,6 +225,8 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     for i in sorted(cuts):
         for cut in cuts[i]:
             base.add_completion(cut)
+    if config.trim_completions:
+        cut_registered_overlaps(base)  # trims base.objects, which is ``valid``
     base.unfit = find_unfit(base)
     for i in sorted(base.unfit):
         base.log(i, "input", "note", reason="footprint cannot fit inside the room; repairs leave it in place")

@@ -89,6 +89,11 @@ class LayoutState:
         if not any(np.allclose(c.points_asset, completion.points_asset, atol=1e-9) for c in same):
             known.append(completion)
 
+    def replace_object(self, obj: AssemblyObject) -> None:
+        """Put ``obj`` in place of the object with its instance id (a cut mesh; same asset frame and pose)."""
+        self.objects[obj.instance] = obj
+        self._version[obj.instance] += 1
+
     def pose(self, i: InstanceId) -> NDArray[np.float64]:
         """Current world_from_asset [4, 4] of object i."""
         return self.delta[i] @ self.objects[i].world_from_asset

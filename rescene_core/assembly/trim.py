@@ -199,8 +199,9 @@ HORIZONTAL_DIRECTIONS = 24
 axis)."""
 
 
-def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
-    """After depenetration: cut the pairs of generated assets that still overlap. For a colliding pair the
+def cut_overlaps(state: LayoutState, world: CollisionWorld, stage: str = "overlap cuts") -> int:
+    """After depenetration (and, ``cut_registered_overlaps``, before the rules): cut the pairs of generated
+    assets that still overlap. For a colliding pair the
     direction n is the separating axis of their footprints (from a into b) and the overlap is the slab between
     b's mesh start and a's mesh end along n. The object with the smaller share of its observed points in that
     slab, if at most OVERLAP_MAX_POINT_SHARE, is cut at the slab's far side: its completion filled space the
@@ -220,7 +221,7 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
         mtv = separating_vector(state.footprint(a), state.footprint(b))
         length = float(np.linalg.norm(mtv))
         if length < 1e-9:
-            cut += _cut_overlap_region(state, a, b, None)
+            cut += _cut_overlap_region(state, a, b, None, stage)
             continue
         n = np.array([-mtv[0] / length, -mtv[1] / length, 0.0])  # from a into b
         va, vb = state.vertices(a) @ n, state.vertices(b) @ n
@@ -234,7 +235,7 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
         kept = level - verts_n.min() if loser == a else verts_n.max() - level
         keeps_bottom = _keeps_bottom(state, a, n, lo) if loser == a else _keeps_bottom(state, b, -n, -hi)
         if share[loser] > OVERLAP_MAX_POINT_SHARE or kept < MIN_KEPT_SHARE * np.ptp(verts_n) or not keeps_bottom:
-            cut += _cut_overlap_region(state, a, b, n)
+            cut += _cut_overlap_region(state, a, b, n, stage)
             continue
         verts = state.vertices(loser)
         origin = verts[0] + (level - float(verts[0] @ n)) * n
@@ -249,11 +250,32 @@ def cut_overlaps(state: LayoutState, world: CollisionWorld) -> int:
                 f"({share[loser]:.0%} of its points there): cut there",
             )
         )
-        state.log(
-            loser, "overlap cuts", "cut overlap", other=int(other), axis=n, depth_m=hi - lo, points_share=share[loser]
-        )
+        state.log(loser, stage, "cut overlap", other=int(other), axis=n, depth_m=hi - lo, points_share=share[loser])
         cut += 1
     return cut
+
+
+def cut_registered_overlaps(state: LayoutState) -> dict[InstanceId, list[Completion]]:
+    """Before the rules: cut the generated assets that overlap at their registered poses (``cut_overlaps``),
+    and replace each cut object's mesh in ``state`` by its cut mesh (returns the new cuts per object).
+
+    Two generated completions registered on their own points often fill the same space: a row of kitchen
+    counters whose completions are each a few centimetres wider than the counter, a desk completed into the
+    chair tucked under it. Depenetration would push them apart by the whole overlap (a counter 10 cm along
+    the row, off the points it was registered on, its neighbour held by its own points). The overlap is the
+    generator's, not the poses': where one mesh fills space the other object was seen in and it was not, it
+    is cut there, before any rule moves either. Pairs whose points overlap too are left to the rules."""
+    from rescene_core.assembly.collision import CollisionWorld
+
+    known = {i: len(c) for i, c in state.completions.items()}
+    cut_overlaps(state, CollisionWorld(state.objects), "registered overlap cuts")
+    new: dict[InstanceId, list[Completion]] = {}
+    for i, completions in state.completions.items():
+        added = [c for c in completions[known.get(i, 0) :] if c.kind is CompletionKind.CUT]
+        if added:
+            new[i] = added
+            state.replace_object(trimmed(state.objects[i], added))
+    return new
 
 
 def _world_points(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
@@ -327,7 +349,9 @@ def overlap_region(
     return np.vstack(parts), samples
 
 
-def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDArray | None) -> int:
+def _cut_overlap_region(
+    state: LayoutState, a: InstanceId, b: InstanceId, n: NDArray | None, stage: str = "overlap cuts"
+) -> int:
     """Cut one generated mesh of an overlapping pair just clear of the space both meshes fill
     (``overlap_region``), when that costs the object few of its own points: for each of the two objects and
     each direction d (``_directions``), the object keeps what lies REGION_CLEARANCE before the region's nearest
@@ -358,7 +382,7 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
             if best is None or removed < best[0]:
                 best = (removed, depth, loser, d, level, share)
     if best is None:
-        return _split_overlap_region(state, a, b, n, region)
+        return _split_overlap_region(state, a, b, n, region, stage)
     _, depth, loser, d, level, share = best
     other = b if loser == a else a
     verts = state.vertices(loser)
@@ -373,25 +397,37 @@ def _cut_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDA
             "its points beyond it: cut there",
         )
     )
-    state.log(loser, "overlap cuts", "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share)
+    state.log(loser, stage, "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share)
     return 1
 
 
 SPLIT_LEVELS = 21
 """Planes tried across the space both meshes fill, per direction, when neither mesh can give all of it up."""
+SEAM_BAND = 0.02
+"""Half-width (m) of the seam between two objects both seen up to a common boundary (counters in a row): an
+instance mask bleeds a few pixels across the boundary and depth is noisy there, so an object's points within
+this distance beyond a split plane are the seam's and do not count against the plane."""
 
 
-def _split_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: NDArray | None, region: NDArray) -> int:
+def _split_overlap_region(
+    state: LayoutState,
+    a: InstanceId,
+    b: InstanceId,
+    n: NDArray | None,
+    region: NDArray,
+    stage: str = "overlap cuts",
+) -> int:
     """Cut both generated meshes of an overlapping pair at one plane across the space both fill
     (``overlap_region`` points ``region``), when neither can give up all of it (``_cut_overlap_region``):
     each keeps its side, REGION_CLEARANCE / 2 back from the plane. Of the directions (``_directions``) and
     SPLIT_LEVELS planes across the region along each, those leaving at most OVERLAP_MAX_POINT_SHARE of each
-    object's observed points outside its side and keeping at least MIN_KEPT_SHARE of each mesh's extent
-    qualify; the one losing the fewest points (the larger of the two shares) wins. Returns 1 when the pair
+    object's observed points outside its side by more than SEAM_BAND and keeping at least MIN_KEPT_SHARE of each mesh's extent
+    qualify; the one losing the fewest points beyond the seam (the larger of the two shares), then the fewest
+    at all, wins. Returns 1 when the pair
     was cut, 0 when no plane qualifies (the points of the two overlap there: left, with the reason logged)."""
     pts = {i: _world_points(state, i) for i in (a, b)}
     verts = {i: state.vertices(i) for i in (a, b)}
-    best: tuple[float, NDArray, float] | None = None
+    best: tuple[tuple[float, float], NDArray, float] | None = None
     for d in _directions(n, state.room.up):
         along = region @ d
         va, vb = verts[a] @ d, verts[b] @ d
@@ -402,11 +438,13 @@ def _split_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: N
                 continue
             if not (_keeps_bottom(state, a, d, keep_a) and _keeps_bottom(state, b, -d, -keep_b)):
                 continue
-            lost = max(float(np.mean(pa > keep_a)), float(np.mean(pb < keep_b)))
-            if lost <= OVERLAP_MAX_POINT_SHARE and (best is None or lost < best[0]):
-                best = (lost, d, float(level))
+            lost = max(float(np.mean(pa > keep_a + SEAM_BAND)), float(np.mean(pb < keep_b - SEAM_BAND)))
+            # among planes losing as few points beyond the seam, the one losing the fewest at all
+            cost = (lost, max(float(np.mean(pa > keep_a)), float(np.mean(pb < keep_b))))
+            if lost <= OVERLAP_MAX_POINT_SHARE and (best is None or cost < best[0]):
+                best = (cost, d, float(level))
     if best is None:
-        state.log(a, "overlap cuts", "overlap left", other=int(b), reason="the two objects' points overlap there")
+        state.log(a, stage, "overlap left", other=int(b), reason="the two objects' points overlap there")
         return 0
     _, d, level = best
     for i, other, normal, keep in (
@@ -429,7 +467,5 @@ def _split_overlap_region(state: LayoutState, a: InstanceId, b: InstanceId, n: N
                 f"cut across it ({share:.0%} of its points beyond)",
             )
         )
-        state.log(
-            i, "overlap cuts", "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share, split=True
-        )
+        state.log(i, stage, "cut overlap", other=int(other), axis=d, depth_m=depth, points_share=share, split=True)
     return 1
