@@ -25,7 +25,7 @@ depth frames; fused points are labelled with the capture instance of the nearest
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -241,22 +241,146 @@ def backproject(depth: NDArray, camera: Camera, max_step: float = 0.05, labels: 
     return PointSet(pts @ rot.T + t, normal @ rot.T, lab)
 
 
-def fuse_depth(frames: Iterable[tuple], config: GeometryConfig) -> PointSet:
+FUSE_CHUNK_POINTS = 2_000_000
+"""Back-projected points gathered before they are folded into the fusion's voxel sums (about 110 MB with
+normals and labels): the fusion holds this plus one entry per occupied voxel, whatever the frame count."""
+_CELL_BITS = 21
+"""Bits per axis of a packed voxel key (three axes in an int64): cells within +-2^20 voxels of the origin."""
+
+
+class VoxelSums:
+    """Running per-voxel sums of a stream of points on a grid of ``voxel`` (m) whose cell corners lie at
+    ``origin`` + k ``voxel`` (voxel (i, j, k) holds the points with floor((p - origin) / voxel) = (i, j, k)):
+    the mean point and normal of each voxel and, per voxel, how often each label was seen. Its memory
+    grows with the occupied voxels, not with the points added.
+
+    origin: float64 [3] world point (m); ``downsample`` anchors its grid at the points' minimum less half a
+    voxel, so a stream given that origin fuses to exactly ``downsample`` of all its points at once.
+    ``add`` takes one chunk of points; ``result`` is the fused set: one point per occupied voxel (the mean
+    of its points, ordered by z, then y, then x cell, as ``downsample``), normals averaged and renormalised
+    (None when a chunk had none), the voxel's most frequent label (the smallest on a tie; None when a chunk
+    had none).
+    """
+
+    def __init__(self, voxel: float, origin: NDArray[np.float64] | None = None):
+        if not voxel > 0:
+            raise ValueError(f"voxel {voxel!r}: the fusion's voxel length (GeometryConfig.fuse_voxel) must be > 0 m")
+        self.voxel = float(voxel)
+        self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64).reshape(3)
+        self.keys = np.zeros(0, np.int64)  # [v] packed voxel keys, sorted
+        self.sums = np.zeros((0, 3))  # [v, 3] sum of the points (m)
+        self.normal_sums: NDArray[np.float64] | None = np.zeros((0, 3))  # [v, 3] sum of the normals
+        self.counts = np.zeros(0, np.int64)  # [v] points per voxel
+        # label counts per (voxel key, label), sorted by voxel then label; None once a chunk had no labels
+        self.pairs: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]] | None = (
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+        )
+
+    def _pack(self, points: NDArray[np.float64]) -> NDArray[np.int64]:
+        cell = np.floor((points - self.origin) / self.voxel).astype(np.int64)
+        half = 1 << (_CELL_BITS - 1)
+        if len(cell) and (cell.min() < -half or cell.max() >= half):
+            reach = half * self.voxel
+            raise ValueError(
+                f"fused points reach {np.abs(points - self.origin).max():.1f} m from the grid's origin; a "
+                f"{self.voxel:g} m fusion grid holds points within {reach:.0f} m of it (check the capture's poses "
+                "and depth units, or raise GeometryConfig.fuse_voxel)"
+            )
+        cell += half  # z-major keys: sorted like downsample's voxels
+        return (cell[:, 2] << (2 * _CELL_BITS)) | (cell[:, 1] << _CELL_BITS) | cell[:, 0]
+
+    def add(self, chunk: PointSet) -> None:
+        """Fold the points [n, 3] of ``chunk`` (with their normals and labels, when it has them) into the sums."""
+        if len(chunk) == 0:
+            return
+        key = self._pack(np.asarray(chunk.points, np.float64))
+        keys, inverse = np.unique(np.concatenate([self.keys, key]), return_inverse=True)
+        old, new = inverse[: len(self.keys)], inverse[len(self.keys) :]
+        n = len(keys)
+
+        def fold(before: NDArray[np.float64], values: NDArray) -> NDArray[np.float64]:
+            out = np.zeros((n, 3))
+            out[old] = before
+            for c in range(3):
+                out[:, c] += np.bincount(new, weights=values[:, c], minlength=n)
+            return out
+
+        self.sums = fold(self.sums, chunk.points)
+        self.normal_sums = (
+            None if chunk.normals is None or self.normal_sums is None else fold(self.normal_sums, chunk.normals)
+        )
+        counts = np.zeros(n, np.int64)
+        counts[old] = self.counts
+        self.counts = counts + np.bincount(new, minlength=n)
+        self.keys = keys
+        if chunk.labels is None or self.pairs is None:
+            self.pairs = None
+            return
+        vox = np.concatenate([self.pairs[0], key])
+        lab = np.concatenate([self.pairs[1], np.asarray(chunk.labels, np.int64)])
+        cnt = np.concatenate([self.pairs[2], np.ones(len(key), np.int64)])
+        order = np.lexsort((lab, vox))
+        vox, lab, cnt = vox[order], lab[order], cnt[order]
+        start = np.flatnonzero(np.concatenate([[True], (np.diff(vox) != 0) | (np.diff(lab) != 0)]))
+        self.pairs = (vox[start], lab[start], np.add.reduceat(cnt, start))
+
+    def result(self) -> PointSet:
+        """The fused points [v, 3] (see the class doc); an empty set when nothing was added."""
+        if len(self.keys) == 0:
+            return PointSet.concatenate([])
+        normals = None
+        if self.normal_sums is not None:
+            normals = self.normal_sums / self.counts[:, None]
+            normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        labels = None
+        if self.pairs is not None:
+            vox, lab, cnt = self.pairs
+            order = np.lexsort((-cnt, vox))  # stable: on a tie the smaller label (pairs are sorted by label)
+            first = order[np.concatenate([[True], np.diff(vox[order]) != 0])]
+            labels = lab[first]  # one per voxel, in key order as self.keys
+        return PointSet(self.sums / self.counts[:, None], normals, labels)
+
+
+def fuse_depth(frames: Callable[[], Iterable[tuple]], config: GeometryConfig) -> PointSet:
     """Fusion of depth maps float32 [H, W] (metres along camera z, 0 = invalid) seen by their cameras
-    (``(depth, camera)`` or ``(depth, camera, labels [H, W])``; labelled points keep the voxel's majority):
-    every valid pixel is back-projected (``backproject``, up to ``depth_max``) and the points of each
-    ``fuse_voxel`` voxel are averaged, normals too. Only surfaces some camera saw get points.
+    (``frames()`` yields ``(depth, camera)`` or ``(depth, camera, labels [H, W])``; labelled points keep the
+    voxel's majority): every valid pixel is back-projected (``backproject``, up to ``depth_max``) and the
+    points of each ``fuse_voxel`` voxel are averaged, normals too. Only surfaces some camera saw get
+    points. The result is ``downsample(all points, fuse_voxel)``.
+
+    Memory is bounded whatever the frame count: ``frames`` is called twice (a first pass finds the
+    points' minimum, where ``downsample`` anchors its grid), and the second pass folds the points into
+    ``VoxelSums`` every ``FUSE_CHUNK_POINTS`` points instead of holding them all.
 
     (A TSDF would be the usual choice; with open3d 0.20.0 the legacy ``ScalableTSDFVolume`` integrates
     nothing and the dense ``UniformTSDFVolume`` takes 16 s to allocate one room at 2 cm. The tensor
     ``VoxelBlockGrid`` works, see ``rescene_core.segment.geometric.tsdf_mesh``, and is not used here yet.)"""
-    sets = []
-    for depth, camera, *labels in frames:
-        depth = np.where(np.asarray(depth) <= config.depth_max, depth, 0.0)
-        pts = backproject(depth, camera, labels=labels[0] if labels else None)
-        if len(pts):
-            sets.append(pts)
-    return downsample(PointSet.concatenate(sets), config.fuse_voxel)
+
+    def points() -> Iterator[PointSet]:
+        for depth, camera, *labels in frames():
+            depth = np.where(np.asarray(depth) <= config.depth_max, depth, 0.0)
+            pts = backproject(depth, camera, labels=labels[0] if labels else None)
+            if len(pts):
+                yield pts
+
+    low = np.full(3, np.inf)
+    for pts in points():
+        low = np.minimum(low, pts.points.min(0))
+    if not np.isfinite(low).all():
+        return PointSet.concatenate([])
+    fused = VoxelSums(config.fuse_voxel, origin=low - config.fuse_voxel / 2)
+    pending: list[PointSet] = []
+    held = 0
+    for pts in points():
+        pending.append(pts)
+        held += len(pts)
+        if held >= FUSE_CHUNK_POINTS:
+            fused.add(PointSet.concatenate(pending))
+            pending, held = [], 0
+    fused.add(PointSet.concatenate(pending))
+    return fused.result()
 
 
 def rendered_depths(
@@ -288,7 +412,7 @@ def label_points(points: PointSet, labelled: PointSet, radius: float) -> PointSe
 def refuse(meshes: Mapping[int, trimesh.Trimesh], cameras: Sequence[Camera], config: GeometryConfig) -> PointSet:
     """The ``refused`` point set of labelled meshes: depth rendered along ``cameras`` and fused; each
     fused point takes the key of the mesh its pixels hit (the voxel's majority)."""
-    return fuse_depth(rendered_depths(meshes, cameras, config), config)
+    return fuse_depth(lambda: rendered_depths(meshes, cameras, config), config)
 
 
 def compare(pred: PointSet, ref: PointSet, config: GeometryConfig) -> dict[str, Any]:
@@ -335,7 +459,7 @@ def sensor_reference(capture: Any, config: GeometryConfig) -> PointSet:
                 depth = np.asarray(Image.fromarray(depth).resize((cam.width, cam.height), Image.NEAREST))
             yield depth, cam
 
-    fused = fuse_depth(frames(), config)
+    fused = fuse_depth(frames, config)
     pts, ids = capture.all_points()
     labelled = PointSet(np.asarray(pts, np.float64), None, np.asarray(ids, np.int64))
     if len(labelled) > config.max_samples:
@@ -445,6 +569,8 @@ __all__ = [
     "downsample",
     "backproject",
     "fuse_depth",
+    "FUSE_CHUNK_POINTS",
+    "VoxelSums",
     "label_points",
     "per_label",
     "point_metrics",

@@ -143,3 +143,51 @@ def test_refused_surface_leaves_out_what_no_camera_sees():
     m = compare(fused, sampled, cfg)
     assert m["accuracy"] < 0.01
     assert m["recall@5cm"] < 0.95
+
+
+def test_voxel_sums_average_per_origin_anchored_voxel_whatever_the_chunks():
+    # Three points in voxel (0, 0, 0) of a 0.1 m grid, two in voxel (-1, 0, 0): means, renormalised normals
+    # and the majority label (the smaller label on a tie), the same from one chunk or point by point.
+    from rescene_core.evaluation.geometry import VoxelSums
+
+    pts = np.array([[0.01, 0.02, 0.03], [0.05, 0.06, 0.07], [0.09, 0.01, 0.02], [-0.01, 0.0, 0.0], [-0.05, 0.0, 0.0]])
+    normals = np.array([[0.0, 0, 1], [0, 0, 1], [0, 1, 0], [1, 0, 0], [1, 0, 0]])
+    labels = np.array([4, 7, 7, 9, 2])
+    whole = VoxelSums(0.1)
+    whole.add(PointSet(pts, normals, labels))
+    single = VoxelSums(0.1)
+    for k in range(len(pts)):
+        single.add(PointSet(pts[k : k + 1], normals[k : k + 1], labels[k : k + 1]))
+    for fused in (whole.result(), single.result()):
+        assert len(fused) == 2
+        np.testing.assert_allclose(fused.points, [pts[3:].mean(0), pts[:3].mean(0)], atol=1e-12)
+        np.testing.assert_allclose(fused.normals, [[1, 0, 0], np.array([0, 1, 2]) / np.sqrt(5)], atol=1e-12)
+        assert fused.labels.tolist() == [2, 7]
+    assert len(VoxelSums(0.1).result()) == 0
+    with pytest.raises(ValueError, match="fuse_voxel"):
+        VoxelSums(0.0)
+    with pytest.raises(ValueError, match="depth units"):
+        VoxelSums(0.02).add(PointSet(np.array([[1e5, 0.0, 0.0]])))
+
+
+def test_fusion_in_chunks_is_the_downsample_of_all_points(monkeypatch):
+    # The fusion folds its points into voxel sums every FUSE_CHUNK_POINTS points (bounded memory on long
+    # captures) on downsample's grid: chunks of a few hundred points give downsample(every point) exactly.
+    import rescene_core.evaluation.geometry as geometry
+
+    box = trimesh.creation.box(extents=[0.6, 0.6, 0.6])
+    box.apply_translation([0, 0, 0.3])
+    meshes = {1: box, 2: _square(z=0.0)}
+    cams = _cameras_around([0, 0, 0.3], 2.0, 1.0, 6)
+    cfg = GeometryConfig(fuse_scale=0.5)
+    every = PointSet.concatenate(
+        [geometry.backproject(d, c, labels=lab) for d, c, lab in geometry.rendered_depths(meshes, cams, cfg)]
+    )
+    expected = downsample(every, cfg.fuse_voxel)
+    monkeypatch.setattr(geometry, "FUSE_CHUNK_POINTS", 300)
+    chunked = refuse(meshes, cams, cfg)
+    assert len(every) > 10 * 300 and len(chunked) == len(expected)
+    np.testing.assert_allclose(chunked.points, expected.points, atol=1e-12)
+    np.testing.assert_allclose(chunked.normals, expected.normals, atol=1e-9)
+    np.testing.assert_array_equal(chunked.labels, expected.labels)
+    assert set(np.unique(expected.labels)) == {1, 2}
