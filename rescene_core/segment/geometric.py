@@ -155,8 +155,9 @@ class SegmentConfig(BaseModel):
     """A body whose lowest point is within this of a top's height, or above it, stands on it (m)."""
     structure_band: float = 0.06
     """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
-    sliver_thickness: float = 0.05
-    """... when it is also thinner than this across the plane (5-95 percentile), unlike a monitor (m)."""
+    sliver_thickness: float = 0.07
+    """... when its points also lie within this of the plane (95th percentile), unlike a monitor's (m); the
+    fused surface of a wall seen at a grazing angle wanders 5-7 cm about its plane."""
     wall_piece_height: float = 1.8
     """An upright sheet at least this tall is wall (a stretch the plane search missed, a door), not an object (m)."""
     structure_sliver_fraction: float = 0.8
@@ -710,6 +711,17 @@ def _is_wall_piece(p: NDArray, cfg: SegmentConfig) -> bool:
     return bool(np.subtract(*np.percentile(across, [95, 5])) < cfg.sliver_thickness)
 
 
+def _faces_wall(p: NDArray, normals: NDArray, planes: list[dict[str, Any]], cfg: SegmentConfig) -> bool:
+    """Whether most points [k, 3] of a region lie with their normals [k, 3] within ``plane_normal_deg`` of
+    the normal of the wall nearest to them (by median distance)."""
+    walls = [q for q in planes if q["kind"] == "wall"]
+    if not walls:
+        return False
+    gaps = [float(np.median(np.abs(p @ np.asarray(q["normal"]) + q["offset"]))) for q in walls]
+    n = np.asarray(walls[int(np.argmin(gaps))]["normal"])
+    return bool((np.abs(normals @ n) > np.cos(np.radians(cfg.plane_normal_deg))).mean() >= 0.5)
+
+
 def _rim_step(g: SuperpointGraph, rim: NDArray[np.bool_]) -> float:
     """Mean colour step (RGB distance / sqrt 3) over the graph edges of the contacts ``rim`` [p]."""
     return float((g.step[rim] * g.contacts[rim]).sum() / max(int(g.contacts[rim].sum()), 1))
@@ -775,12 +787,17 @@ def _filter_regions(
             continue
         dist = _structure_distance(p, planes)
         sliver = bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)
-        sliver &= bool(np.percentile(dist, 95) < cfg.sliver_thickness)
+        # thinner than ``sliver_thickness`` across the plane, or as tall as a wall (a stretch of wall whose
+        # fused surface wanders a few centimetres about the plane: no furniture lies along a wall that tall)
+        sliver &= bool(np.percentile(dist, 95) < cfg.sliver_thickness) or bool(np.ptp(p[:, 2]) >= cfg.wall_piece_height)
         if sliver and hangs:
             # a thin region hanging on a wall off its plane (a wall clock, a mirror's frame): an object when
-            # the masks see it apart, or when it stands proud of the wall or its outline steps in colour
+            # the masks see it apart, when its outline steps in colour, or when it stands proud of the wall
+            # and faces the room as the wall does (a stretch of the wall whose fused normals stray off the
+            # plane's, and so stayed off it, lies in it and faces every way)
             edge = _rim_step(g, (inside ^ outside) & (rim_wall > 0))
-            if flush_by_masks or edge >= cfg.flush_edge_step or float(np.median(dist)) >= cfg.flush_offset:
+            proud = float(np.median(dist)) >= cfg.flush_offset and _faces_wall(p, sp.normals[idx], planes, cfg)
+            if flush_by_masks or edge >= cfg.flush_edge_step or proud:
                 sliver = False
         if sliver:
             counts["joined_structure"] += 1
