@@ -242,8 +242,8 @@ def run(
             row["objects"] = len(cap.object_instances)
             row["image_size"] = list(cap.image_size)
             scan = work_dir / f"scannet_{preset}_seed{seed}_f{n}"
-            if not (scan / "scannetv2-labels.combined.tsv").exists():
-                shutil.rmtree(scan, ignore_errors=True)
+            if "import" in parts and not (scan / "scannetv2-labels.combined.tsv").exists():
+                shutil.rmtree(scan, ignore_errors=True)  # written only when the import is measured (minutes)
                 write_scannet(cap, scan)
             del cap
             cache = work_dir / f"cache_{preset}_seed{seed}_f{n}"
