@@ -12,11 +12,15 @@
    crease (a lamp standing on a nightstand, a chair seat meeting a table's edge), a strong change of
    colour, or a support contact (a body standing on a horizontal top and narrower than it: what spans the
    top is its own back or headboard). Small pieces and thin upright ones (legs) join what they touch most;
+   slender uprights standing under a broader region (fused table legs, a desk's side panels) join it;
    regions parted by creases alone join again when one lies within the other's bounds (shelves in a
-   bookcase). Wall superpoints stay wall unless their colour differs from the wall's or they stand proud
-   of it; such a region hanging clear of the floor and ceiling with a sharp outline or a depth step is a
-   flush object (a picture, a mirror, a TV). Regions too small, too large, upright sheets as tall as a
-   wall and slivers of the structure are dropped.
+   bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
+   Wall superpoints stay wall unless their colour differs from the wall's or they stand proud of it, and
+   hanging superpoints just off a wall's plane (a clock's rim and face) count with them; such a region
+   hanging clear of the floor and ceiling with a sharp outline or a depth step is a flush object (a
+   picture, a mirror, a clock, a TV), its pieces parted by colour joined when one lies within the other
+   (a canvas in its frame). Regions too small, too large, upright sheets as tall as a wall and slivers of
+   the structure are dropped.
 5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
@@ -108,8 +112,9 @@ class SegmentConfig(BaseModel):
     concave_colour_step: float = 0.0
     """... that separates two superpoints when their mean colours also differ by at least this (RGB distance /
     sqrt 3; 0: every crease separates, since touching objects of one colour are common)."""
-    colour_cut: float = 0.22
-    """Touching superpoints whose mean colours differ by this much are never joined (RGB distance / sqrt 3)."""
+    colour_cut: float = 0.26
+    """Touching superpoints whose mean colours differ by this much are never joined (RGB distance / sqrt 3;
+    the shading and exposure of a real recording step 0.22 across one surface)."""
     flush_colour_step: float = 0.12
     """A superpoint on a wall whose mean colour differs from the wall's by this much is a flush candidate..."""
     flush_offset: float = 0.012
@@ -132,8 +137,9 @@ class SegmentConfig(BaseModel):
     leg_max_width: float = 0.16
     """An upright region narrower than this one way (m), standing near the floor with its upper end just under
     a broader region, is a leg or a side panel of it (fused legs are fatter than ``leg_width``)."""
-    min_segment_points: int = 60
-    """Fewest thinned points of an object segment; smaller regions join their most touching neighbour."""
+    min_segment_points: int = 80
+    """Fewest thinned points of an object segment (80 points of 2.5 cm: 0.05 m^2 of surface); smaller
+    regions join their most touching neighbour."""
     min_segment_extent: float = 0.1
     """Smallest largest-dimension of an object segment (m)."""
     max_segment_extent: float = 4.0

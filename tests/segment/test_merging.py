@@ -1,0 +1,73 @@
+"""Region merging rules on hand-made point sets: what rests on a top stays apart from it, slender uprights
+under a broader region join it, and a hanging region faces the room as its wall does."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rescene_core.segment.geometric import ScanPoints, SegmentConfig, _attach_legs, _faces_wall, _rests_on
+from rescene_core.segment.superpoints import edge_weights, point_graph, superpoint_graph
+
+STEP = 0.025
+CFG = SegmentConfig()
+
+
+def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> np.ndarray:
+    """Points [n, 3] filling an axis-aligned box on a STEP grid (m)."""
+    axes = [np.arange(a, b + 1e-9, STEP) for a, b in zip(lo, hi, strict=True)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+
+def test_a_body_on_a_shelf_rests_on_it_and_a_board_or_a_mattress_does_not():
+    # a bookcase 1 m wide, 0.4 m deep; the shelf top at z = 0.7 is seen around a book stack standing on it
+    shelf = _box((0.0, 0.0, 0.7), (1.0, 0.4, 0.7))
+    big_lo, big_hi = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.4, 1.8])
+    stack = np.array([0.3, 0.1, 0.7]), np.array([0.5, 0.3, 0.85])
+    under = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
+    tops = shelf[~under]  # the shelf under the stack is hidden
+    assert _rests_on(tops, *stack, big_lo, big_hi, CFG)
+    # a shelf board (2 cm thick) lies at the same height but is part of the frame
+    assert not _rests_on(tops, np.array([0.0, 0.0, 0.7]), np.array([0.6, 0.4, 0.72]), big_lo, big_hi, CFG)
+    # a body as wide as the larger region (a mattress in its bed's frame) stays with it
+    assert not _rests_on(tops, np.array([0.02, 0.02, 0.7]), np.array([0.98, 0.3, 0.9]), big_lo, big_hi, CFG)
+    # nothing under its footprint at its lowest height: it does not stand on this top
+    assert not _rests_on(tops, np.array([0.3, 0.1, 1.1]), np.array([0.5, 0.3, 1.3]), big_lo, big_hi, CFG)
+
+
+def _scan(parts: list[np.ndarray]) -> tuple[ScanPoints, np.ndarray]:
+    """ScanPoints whose superpoints are the given parts (one each, ids 0..k-1), with region ids 1..k."""
+    pts = np.concatenate(parts)
+    label = np.concatenate([np.full(len(p), i) for i, p in enumerate(parts)])
+    nrm = np.tile([0.0, 0.0, 1.0], (len(pts), 1))
+    col = np.full((len(pts), 3), 0.5)
+    edges = point_graph(pts, STEP * 1.75)
+    _, concave, step = edge_weights(pts, nrm, col, edges, 1.0)
+    g = superpoint_graph(pts, nrm, col, label, edges, concave, step)
+    sp = ScanPoints(pts, nrm, col, np.zeros(len(pts), np.int64), np.arange(len(pts)), edges, g)
+    return sp, np.arange(1, len(parts) + 1)
+
+
+def test_fused_legs_under_a_table_top_join_it_and_a_chair_beside_it_does_not():
+    top = _box((0.0, 0.0, 0.72), (1.2, 0.8, 0.75))
+    # legs 12 cm thick once fused (wider than ``leg_width``), ending 3 cm under the top: cut off at its crease
+    legs = [_box((x, y, 0.04), (x + 0.12, y + 0.12, 0.69)) for x in (0.0, 1.08) for y in (0.0, 0.68)]
+    chair = _box((1.4, 0.2, 0.04), (1.8, 0.6, 0.9))  # beside the table, as tall as its top and broad
+    panel = _box((0.3, 0.76, 0.3), (0.9, 0.8, 0.69))  # a modesty panel: slender one way, under the top
+    sp, region = _scan([top, *legs, chair, panel])
+    out, joined = _attach_legs(sp, region, CFG)
+    assert joined == 4  # the four legs; the panel hangs clear of the floor, the chair is no upright
+    assert len(set(out[1:5].tolist()) | {out[0]}) == 1
+    assert out[5] != out[0] and out[6] != out[0]
+
+
+def test_a_hanging_region_faces_the_room_as_its_wall_does():
+    planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0}]
+    face = _box((0.03, 1.0, 1.8), (0.03, 1.3, 2.1))  # a clock's face 3 cm proud of the wall x = 0
+    assert _faces_wall(face, np.tile([1.0, 0.0, 0.0], (len(face), 1)), planes, CFG)
+    rng = np.random.default_rng(0)
+    stray = rng.normal(size=(len(face), 3))
+    stray /= np.linalg.norm(stray, axis=1, keepdims=True)
+    stray[:, 0] = 0.3 * np.sign(stray[:, 0])  # a wall surface whose fused normals wander well off the plane's
+    stray /= np.linalg.norm(stray, axis=1, keepdims=True)
+    assert not _faces_wall(face, stray, planes, CFG)
+    assert not _faces_wall(face, np.tile([1.0, 0.0, 0.0], (len(face), 1)), planes[:1], CFG)  # no wall
