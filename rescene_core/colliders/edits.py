@@ -46,8 +46,11 @@ in ``scene/export_report.json`` under the object.
   of the height, up to half of it: a generated lamp's head beside its foot) until the centre is over the
   footing's bottom far enough to resist a tilt of ``FOOTING_TILT_DEG`` (the rotation the physics check
   still calls stable: a centre 14 cm up and 1 cm inside tips at 4 deg), else, when no band does, the first
-  band that holds it ``FOOTING_MARGIN`` inside. When no band holds it, nothing is added and the report
-  says so.
+  band that holds it ``FOOTING_MARGIN`` inside. When no band holds it and it carries something, a plinth:
+  the prism under the plan of all its pieces (the boards under what it carries included), from its lowest
+  point to just under the lowest board it carries (``footing.plinth``: a cabinet generated from its front
+  as a slab, under books the capture saw further back). When nothing holds it, nothing is added and the
+  report says so.
 * **Neighbours** (rescene_core/colliders/separate.py): pieces of two objects, neither resting on the other,
   that overlap where neither object's mesh or completions are, are cut apart by a plane between the two,
   or, when no plane separates them, the piece filling a concavity the other stands in is carved there;
@@ -270,7 +273,14 @@ def edit_colliders(
         if kinds.get(name) != "free" or edge is None or edge.relation != Relation.RESTS_ON:
             continue
         load = carried(int(obj.instance), frozenset({int(obj.instance)}))
-        piece, entry = footing(places[name], pieces[name], masses.get(name, 1.0), load, others_of(name))
+        bottoms = [
+            float(places[n].world(np.vstack([v for v, _ in pieces[n]]))[:, 2].min())
+            for n in (by_instance[c].node_name for c in _children(obj.instance, graph) if c in by_instance)
+            if pieces.get(n)
+        ]
+        piece, entry = footing(
+            places[name], pieces[name], masses.get(name, 1.0), load, others_of(name), min(bottoms, default=None)
+        )
         if entry is not None and load:
             entry["load_kg"] = round(sum(m for m, _ in load), 3)
         if piece is not None:

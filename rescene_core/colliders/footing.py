@@ -1,5 +1,6 @@
 """Footings: a free object resting on something whose centre of mass is not over the points it stands on
-gets the hull of its lowest band (see ``rescene_core.colliders.edits``).
+gets the hull of its lowest band, or, when no band holds it and it carries things that stand past its body,
+a plinth under what it carries (see ``rescene_core.colliders.edits``).
 """
 
 from __future__ import annotations
@@ -11,7 +12,14 @@ import numpy as np
 from numpy.typing import NDArray
 from shapely.geometry import MultiPoint, Point
 
-from rescene_core.colliders.pieces import Piece, Placement, centre_of_mass, hull_piece, inside_piece
+from rescene_core.colliders.pieces import (
+    BOARD_THICKNESS,
+    Piece,
+    Placement,
+    centre_of_mass,
+    hull_piece,
+    inside_piece,
+)
 
 CONTACT_BAND = 0.001
 """Collider points within this height (m) of the lowest one are the points an object stands on."""
@@ -34,6 +42,10 @@ FOOTING_MIN_BAND = 0.01
 """Smallest band of a footing (m)."""
 
 
+PLINTH_CLEARANCE = 0.002
+"""Gap (m) between a plinth's top and the bottom of the lowest board what the object carries stands on."""
+
+
 def _support_margin(points_xy: NDArray, centre_xy: NDArray) -> float:
     """Signed distance (m) of ``centre_xy`` inside the convex hull of ``points_xy`` (negative: outside)."""
 
@@ -50,12 +62,14 @@ def footing(
     mass: float = 1.0,
     load: Iterable[tuple[float, NDArray]] = (),
     others: NDArray | None = None,
+    carried_from: float | None = None,
 ) -> tuple[Piece | None, dict[str, Any] | None]:
     """A footing piece (body frame) for an object that would rock on its lowest points, and its report
     entry; (None, None) when it stands as it is. ``load``: (mass kg, world centre of mass) of what rests
     on the object (its children, theirs, ...), whose weight it carries; ``mass``: its own (kg). ``others``:
     world points [n, 3] of neighbours' geometry (meshes, completions), which a footing must not reach into
-    (a band that would is skipped)."""
+    (a band that would is skipped). ``carried_from``: the world height (m) of the lowest bottom among the
+    objects resting on it (None when nothing does), the top a plinth stays under (``plinth``)."""
     com = centre_of_mass(pieces)
     if com is None:
         return None, None
@@ -104,9 +118,59 @@ def footing(
         holding.append((piece, entry))
     if holding:  # none resists the tilt: the first that holds the centre at all
         return holding[0]
+    if carried_from is not None:
+        block, said = plinth(place, pieces, com_w, carried_from, others)
+        if block is not None and said is not None:
+            return block, said | {"support_margin_before_m": round(margin, 4)}
+        blocked = blocked or said is not None
     return None, {
         "band_m": None,
         "support_margin_before_m": round(margin, 4),
         "why": f"none added: no band up to {FOOTING_BANDS[-1]:g} of its height holds its centre of mass"
         + (" without reaching into a neighbour" if blocked else ""),
+    }
+
+
+def plinth(
+    place: Placement,
+    pieces: list[Piece],
+    com_w: NDArray,
+    carried_from: float,
+    others: NDArray | None,
+) -> tuple[Piece | None, dict[str, Any] | None]:
+    """A plinth (body frame) under everything an object's collider spans in plan, from its lowest point up
+    to just under the boards what it carries stands on (``carried_from`` less a board and
+    ``PLINTH_CLEARANCE``), when that holds ``com_w`` (world, with its load) ``FOOTING_MARGIN`` inside and
+    reaches into none of ``others``. (None, None) when it would not hold the centre or has no height; (None,
+    entry) when it would reach into a neighbour.
+
+    The case: a body generated from one side only (a cabinet seen from the front is a 4 cm slab, a shelf
+    seen from the front 9 cm deep) under things the capture saw standing 20-30 cm further back; their boards
+    reach past the body, which tips under their weight. The capture says the object carries them there, so
+    its body reaches under them."""
+    cw = place.world(np.vstack([v for v, _ in pieces]))
+    zmin = float(cw[:, 2].min())
+    top = carried_from - BOARD_THICKNESS - PLINTH_CLEARANCE
+    if top < zmin + FOOTING_MIN_BAND:
+        return None, None
+    plan = MultiPoint(cw[:, :2]).convex_hull
+    if plan.geom_type != "Polygon":
+        return None, None
+    held = _support_margin(cw[:, :2], com_w[:2])
+    if held < FOOTING_MARGIN:
+        return None, None
+    ring = np.asarray(plan.exterior.coords, np.float64)[:-1]
+    corners = np.vstack([np.c_[ring, np.full(len(ring), zmin)], np.c_[ring, np.full(len(ring), top)]])
+    piece = hull_piece(place.body(corners))
+    if piece is None:
+        return None, None
+    if others is not None and len(others) and inside_piece(others, (place.world(piece[0]), piece[1])).any():
+        return None, {"plinth": "blocked: it would reach into a neighbour"}
+    return piece, {
+        "band_m": None,
+        "plinth_m": [round(zmin, 4), round(top, 4)],
+        "support_margin_after_m": round(held, 4),
+        "why": "no band of its own mesh holds its centre of mass (with what rests on it): what it carries "
+        "stands past its generated body (a body seen from one side), so a plinth under its whole plan, up to "
+        "the lowest board it carries, is added",
     }

@@ -281,3 +281,24 @@ def test_a_hollow_shelf_registered_into_its_wall_is_pulled_out_of_it_with_its_ba
     result = simcheck_run(run, SimcheckConfig())
     assert result.summary.stable == result.summary.free == 2
     assert result.summary.penetration_t0_max < 0.002
+
+
+def test_a_slab_carrying_things_past_its_body_gets_a_plinth_under_them():
+    # a cabinet generated from its front only: a slab 4 cm deep, 0.8 m tall, with the board the capture saw
+    # under the books on its top reaching 30 cm back past the slab; the books' weight tips it backwards
+    slab = trimesh.creation.box(bounds=[[0, 0, 0], [0.04, 1.0, 0.8]])
+    board = trimesh.creation.box(bounds=[[0, 0.1, 0.78], [0.34, 0.9, 0.8]])
+    place = _place(slab)
+    pieces = [(slab.vertices, slab.faces), (board.vertices, board.faces)]
+    books = [(3.0, np.array([0.25, 0.5, 0.9]))]
+    piece, entry = footing(place, pieces, 3.0, books)
+    assert piece is None and entry["band_m"] is None  # nothing carried given: no plinth, and it says so
+    piece, entry = footing(place, pieces, 3.0, books, carried_from=0.8)
+    assert piece is not None and entry["support_margin_before_m"] < 0 < 0.01 < entry["support_margin_after_m"]
+    lo, hi = piece[0].min(axis=0), piece[0].max(axis=0)
+    assert lo == pytest.approx([0, 0, 0]) and hi[:2] == pytest.approx([0.34, 1.0])
+    assert hi[2] == pytest.approx(0.8 - BOARD_THICKNESS - 0.002)  # under the board, not into the books
+    # a neighbour's geometry where the plinth would stand: nothing added, and the report says why
+    chair = np.array([[0.2, 0.5, 0.3]])
+    piece, entry = footing(place, pieces, 3.0, books, chair, carried_from=0.8)
+    assert piece is None and "without reaching into a neighbour" in entry["why"]
