@@ -13,7 +13,9 @@ or its point cloud restricted to the pixels of its mask here) and at the other i
 3. a visible instance that can hold it from below (``geom.holds_from_below``: judged by its top surface
    around the child, not its lowest visible point) has upward-facing surface points from ``support_gap``
    below to ``support_tol`` above the child's bottom, under the child's footprint -> rests-on that
-   instance (largest footprint overlap);
+   instance (largest footprint overlap); an instance whose top keeps away from the wall the child's back is
+   at (``bridges_to_wall``: a wall shelf just above a monitor) does not hold it, and a child that only such
+   instances would hold -> mounts-on wall;
 4. it is a large horizontal top at counter height with nothing seen below (``geom.seen_only_from_above``)
    -> rests-on floor (a counter or an island whose base is out of view);
 5. its lower outline is hidden (behind a nearer instance or the image border) and it is not a flat thing
@@ -47,6 +49,7 @@ from rescene_core.scenegraph.geom import (
     seen_only_from_above,
     upper_surface,
     upward_mask,
+    wall_back,
     wall_flush,
 )
 from rescene_core.scenegraph.prompt import answer_json
@@ -62,6 +65,36 @@ wall and in height, is compact (``compact_on_a_wall``): it hangs on the wall onl
 holds it. On the egocentric kitchens jars and bowls standing at the back of a counter measure 0.7-1.5 per
 frame, and a spice jar 2.4-2.6; on the standard and cluttered scenes the things hung on walls 2.5 (a wall
 clock) and more."""
+
+
+SMALL_ON_A_WALL = 0.12
+"""A thing flat against a wall whose bulk spans less than this (m) along the wall and in height is compact
+too (``compact_on_a_wall``) whatever its aspect: a spice jar (under 10 cm, aspect 2.4-2.6 per frame) at the
+back of a counter stands on the counter. The smallest things hung on walls of the synthetic scenes span more
+(a wall clock 0.24-0.36 m across, its bulk about 0.16 m or more; pictures 0.3 m and more)."""
+WALL_BRIDGE = 0.08
+"""A child whose back is at a wall (``wall_back`` within ``wall_tol``) while the upward face of a thing under
+it keeps more than this (m, its BRIDGE_QUANTILE quantile) further from that wall than the child's back spans
+the gap between the two: it is held by the wall, not by the thing (a wall shelf 2 cm above a monitor: the
+shelf's back 2-3 cm from the wall, the monitor's top 16-18 cm). A jar at the back of a counter has the
+counter's top reaching the wall beside it."""
+BRIDGE_QUANTILE = 0.25
+"""The quantile of the support face's distances to the wall that says how near the wall it reaches: a lower
+one reads the few points bled from the wall or the child at the face's edge (10% of a monitor's top points
+lie within 3 cm of the wall behind it in some views)."""
+
+
+def bridges_to_wall(child: np.ndarray, support: np.ndarray, shell) -> bool:
+    """Whether a child (points [n, 3]) with its back at a wall spans the gap between a support's upward face
+    (its points [m, 3] at the child's bottom height around the child) and that wall (WALL_BRIDGE)."""
+    if len(support) < 3 or not len(child):
+        return False
+    wall, _ = nearest_wall(child, shell)
+    if wall is None:
+        return False
+    back = wall_back(child, wall)
+    face = float(np.quantile(wall.plane.signed_distance(support), BRIDGE_QUANTILE))
+    return face - back > WALL_BRIDGE
 
 
 def bottom_occluded(view, instance: int) -> bool:
@@ -99,8 +132,9 @@ def flat_on_a_wall(points, shell, cfg) -> bool:
 def compact_on_a_wall(points, shell) -> bool:
     """Whether the points [n, 3], flat against a wall (``flat_on_a_wall``), are compact: the bulk of them
     (the SPAN_QUANTILE to 1 - SPAN_QUANTILE range) spans less than COMPACT_ASPECT times its depth off the
-    wall both along the wall and in height. A jar or a bowl at the back of a counter is as deep as it is
-    wide; pictures, mirrors, TVs, clocks and shelves are at least 2.5 times wider or taller than deep."""
+    wall both along the wall and in height, or less than SMALL_ON_A_WALL. A jar or a bowl at the back of a
+    counter is as deep as it is wide, a spice jar smaller than anything hung on a wall; pictures, mirrors,
+    TVs, clocks and shelves are at least 2.5 times wider or taller than deep."""
     wall, _, span = wall_flush(points, shell)
     if wall is None:
         return False
@@ -108,7 +142,7 @@ def compact_on_a_wall(points, shell) -> bool:
     n = np.asarray(wall.plane.normal, dtype=np.float64)
     along = np.array([-n[1], n[0], 0.0]) / max(float(np.hypot(n[0], n[1])), 1e-9)
     extents = [np.subtract(*np.quantile(v, [1.0 - SPAN_QUANTILE, SPAN_QUANTILE])) for v in (pts @ along, pts[:, 2])]
-    return bool(max(extents) < COMPACT_ASPECT * span)
+    return bool(max(extents) < COMPACT_ASPECT * span or max(extents) < SMALL_ON_A_WALL)
 
 
 class GeometricPredictor:
@@ -150,8 +184,11 @@ class GeometricPredictor:
         if flat and not compact_on_a_wall(p, shell):
             return Relation.MOUNTS_ON.value, Root.WALL.value
         xy = p[:, :2]
+        wall, wall_d = nearest_wall(p, shell)
+        against = wall is not None and wall_back(p, wall) <= cfg.wall_tol
         best, best_key = None, None
         below = []
+        bridged = False
         for q, pq in pts.items():
             if q == d or len(pq) < cfg.min_points:
                 continue
@@ -163,14 +200,17 @@ class GeometricPredictor:
             # from above has its lowest visible point at its top, at the child's bottom)
             if not holds_from_below(pq, hq, bottom[q], around, xy, b, cfg.support_tol):
                 continue
+            # an upward-facing surface of q at the child's bottom height (a bed's side beside a nightstand,
+            # or the neighbouring book's side, is at that height too, but faces sideways)
+            band = (hq >= b - cfg.support_gap) & (hq <= b + cfg.support_tol) & up[q]
+            if against and bridges_to_wall(p, pq[band & around], shell):
+                bridged = True  # the child spans the gap from q's top to the wall it hangs on
+                continue
             # its highest points under the child, below the child's bottom: more than support_gap lower, the
             # child does not rest on it (a wall cabinet above a cup)
             under = around & (hq < b + cfg.support_tol)
             if under.any() and upper_surface(hq[under]) >= b - cfg.support_gap:
                 below.append((upper_surface(hq[under]), q))
-            # an upward-facing surface of q at the child's bottom height (a bed's side beside a nightstand,
-            # or the neighbouring book's side, is at that height too, but faces sideways)
-            band = (hq >= b - cfg.support_gap) & (hq <= b + cfg.support_tol) & up[q]
             surface = pq[band][:, :2]
             if len(surface) < 3:
                 continue
@@ -181,11 +221,12 @@ class GeometricPredictor:
                 best, best_key = q, key
         if best is not None:
             return Relation.RESTS_ON.value, int(best)
-        if flat:
-            return Relation.MOUNTS_ON.value, Root.WALL.value  # compact, against a wall, nothing beneath holds it
+        if flat or bridged:
+            # compact, against a wall, nothing beneath holds it; or it spans the gap from what is under it to
+            # the wall
+            return Relation.MOUNTS_ON.value, Root.WALL.value
         if seen_only_from_above(h[d], xy):
             return Relation.RESTS_ON.value, Root.FLOOR.value  # a counter or an island whose base is out of view
-        wall, wall_d = nearest_wall(p, shell)
         flat_on_wall = False
         if wall is not None and wall_d <= cfg.wall_tol:
             span = wall.plane.signed_distance(p)
