@@ -411,3 +411,97 @@ def planes_within_room(state: LayoutState) -> None:
                 area_removed_m2=float(plane.area - hull.area),
             )
         state.completions[i] = kept
+
+
+WALL_REACH_BAND = 0.03
+"""An object's observed points reach its wall when their WALL_REACH_QUANTILE quantile of distances to it is
+within this (m): the capture saw the object extend back to the wall (a wall cabinet's underside seen from
+below), not only the face its generated mesh shows."""
+WALL_REACH_QUANTILE = 0.02
+"""See WALL_REACH_BAND (the nearest points, a few strays aside)."""
+
+
+def add_wall_bases(state: LayoutState) -> None:
+    """A base between the wall and every object in ``state.wall_base_wanted`` whose generated mesh its final
+    pose leaves off that wall while its observed points reach it (WALL_REACH_BAND).
+
+    A wall cabinet seen from below by a head-mounted camera shows its doors and its underside; a single-view
+    generator makes a slab of the doors, registered where the doors were seen, 0.3 m in front of the wall. The
+    wall rule cannot move it back (its points would be left outside the mesh), so it hangs on nothing. Its
+    body is completed back to the wall: a convex solid spanning the mesh's outline on the wall plane (along
+    the wall and up), from the wall to BASE_OVERLAP into the mesh, a ``base`` completion like the floor's
+    (contact metrics count it, exporters add it as a collider). Not added where another object (not one it
+    carries) reaches into that space."""
+    room = state.room
+    for i, (wall_id, reason) in sorted(state.wall_base_wanted.items()):
+        wall = room.wall(wall_id)
+        obj = state.objects[i]
+        if wall is None or obj.exact_shape or obj.points is None or len(obj.points) < BASE_MIN_POINTS:
+            continue
+        verts = cut_vertices(state, i)
+        dist = wall.distance(verts)
+        gap = float(dist.min())
+        if gap < BASE_MIN_GAP:
+            continue
+        pts = apply(state.pose(i) @ inverse(obj.world_from_asset), np.asarray(obj.points, np.float64))
+        reach = float(np.quantile(wall.distance(pts), WALL_REACH_QUANTILE))
+        if reach > WALL_REACH_BAND:
+            state.log(i, "completions", "no wall base", reason=f"its points keep {reach:.3f} m off its wall")
+            continue
+        on_wall = verts - dist[:, None] * wall.normal[None, :]  # the mesh projected on the wall plane
+        solid = np.vstack([on_wall, on_wall + (gap + BASE_OVERLAP) * wall.normal[None, :]])
+        hull = trimesh.convex.convex_hull(solid)
+        hull, cleared = _clear_along_wall(state, i, hull, wall)
+        if hull is None:
+            state.log(i, "completions", "no wall base", reason="neighbours fill the space behind the object")
+            continue
+        if cleared:
+            state.log(i, "completions", "wall base clear of neighbours", neighbours=cleared)
+        world = np.asarray(hull.vertices, np.float64)
+        state.add_completion(
+            Completion(
+                i,
+                CompletionKind.BASE,
+                apply(inverse(state.pose(i)), world),
+                f"its mesh keeps {gap:.2f} m off its wall while its observed points reach the wall ({reason}): "
+                "amodal completion, its body back to the wall",
+            )
+        )
+
+
+WALL_BASE_MIN_KEPT = 0.5
+"""A wall base cut clear of its neighbours keeps at least this share of its volume, or is not added."""
+
+
+def _clear_along_wall(
+    state: LayoutState, i: InstanceId, hull: trimesh.Trimesh, wall
+) -> tuple[trimesh.Trimesh | None, list[int]]:
+    """The wall base ``hull`` (world) of object i cut clear of every neighbour (not in i's subtree or carrying
+    it) whose mesh reaches into it by more than BASE_CLEARANCE: per such neighbour, of the planes along the
+    wall and up or down at BASE_CLEARANCE before its vertices inside, the one keeping the most volume (the
+    other half of an over-segmented cabinet beside it, a cabinet below). Returns the cut hull (None when
+    less than WALL_BASE_MIN_KEPT of it is left) and the neighbours cut for."""
+    volume = float(hull.volume)
+    cleared: list[int] = []
+    for j in sorted(state.objects):
+        if j == i or state.forest.related(i, j):
+            continue
+        verts = state.vertices(j)
+        lo, hi = hull.bounds
+        near = verts[np.all((verts >= lo - BASE_CLEARANCE) & (verts <= hi + BASE_CLEARANCE), axis=1)]
+        if not len(near):
+            continue
+        inside = near[trimesh.proximity.signed_distance(hull, near) > BASE_CLEARANCE]
+        if not len(inside):
+            continue
+        best: trimesh.Trimesh | None = None
+        for d in (wall.tangent, -wall.tangent, state.room.up, -state.room.up):
+            level = float((inside @ d).min()) - BASE_CLEARANCE
+            kept = hull.slice_plane(level * d, -d, cap=True)
+            if kept is not None and len(kept.vertices) >= 4 and (best is None or kept.volume > best.volume):
+                best = kept
+        if best is None or best.volume < WALL_BASE_MIN_KEPT * volume:
+            return None, cleared
+        hull = trimesh.convex.convex_hull(np.asarray(best.vertices, np.float64))
+        cleared.append(int(j))
+    return hull, cleared

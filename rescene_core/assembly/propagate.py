@@ -120,6 +120,8 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             state.skip(child, stage, refused)
             if "level_height_m" in info and not isinstance(edge.parent, Root):
                 support_with_base(state, child, edge.parent, edge, float(info["level_height_m"]))
+            if "wall_id" in info:
+                state.wall_base_wanted[child] = (int(info["wall_id"]), refused)
             continue
         over = state.over_bound(child, parent_delta @ update) if "wall_id" in info else None
         if over is not None:

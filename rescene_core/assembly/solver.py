@@ -28,7 +28,7 @@ from collections import defaultdict
 import numpy as np
 
 from rescene_core.assembly.collision import CollisionWorld
-from rescene_core.assembly.completions import add_bases, add_tipping_bases, planes_within_room
+from rescene_core.assembly.completions import add_bases, add_tipping_bases, add_wall_bases, planes_within_room
 from rescene_core.assembly.depenetrate import depenetrate
 from rescene_core.assembly.graph import build_forest
 from rescene_core.assembly.objects import AssemblyObject, check_object
@@ -135,6 +135,7 @@ def choose_branches(wall: LayoutState, floor: LayoutState, world: CollisionWorld
                 merged.completions.pop(i, None)
                 merged.base_wanted.pop(i, None)
                 merged.support_base_wanted.pop(i, None)
+                merged.wall_base_wanted.pop(i, None)
                 if i in floor.completions:
                     merged.completions[i] = list(floor.completions[i])
                 if i in floor.base_wanted:
@@ -247,6 +248,7 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     if config.trim_completions and config.stop_after == "full":
         cut_overlaps(final, world)
     add_bases(final)
+    add_wall_bases(final)
     add_tipping_bases(final)
     planes_within_room(final)
     record_completions(final)

@@ -57,6 +57,10 @@ class LayoutState:
     """Objects resting on another whose support correction the evidence refused while their observed points
     reach down to it (a lamp whose generated mesh lacks its stem): the parent, the support level (m above
     the parent's lowest point) and the reason; they get a base down to that level (completions.add_bases)."""
+    wall_base_wanted: dict[InstanceId, tuple[int, str]] = field(default_factory=dict)
+    """Objects mounted on a wall whose wall correction the evidence refused (a generated mesh that is the front
+    of a wall cabinet seen from below, its back never seen): the wall and the reason; they get a base back to
+    that wall when their points reach it (completions.add_wall_bases)."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
     _anchor: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
@@ -80,6 +84,7 @@ class LayoutState:
             {k: list(v) for k, v in self.completions.items()},
             dict(self.base_wanted),
             dict(self.support_base_wanted),
+            dict(self.wall_base_wanted),
         )
 
     def add_completion(self, completion: Completion) -> None:

@@ -163,3 +163,48 @@ def test_a_stool_tucked_under_the_overhang_keeps_its_space():
     world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
     assert 2.70 < world[:, 1].max() <= 2.725 - 0.004  # cut back short of the stool, the rest of the block kept
     assert world[:, 1].min() < 2.06
+
+
+def _wall_cabinet_seen_from_below(with_neighbour: bool = False) -> tuple[dict, SceneGraph]:
+    """A wall cabinet 0.35 m deep on the wall y = 0 (1.4 to 2.0 m up, x 1.0 to 2.0) seen from below: its
+    doors (y = 0.35) and its underside (y 0 to 0.35) were seen; the generated mesh is a 5 cm slab of the
+    doors. With ``with_neighbour``, a second wall cabinet beside it (x 2.0 to 2.6) reaching the wall."""
+    rng = np.random.default_rng(5)
+    slab = box_object(1, "wall cabinet", (1.0, 0.05, 0.6), placed(1.5, 0.325, 1.4), exact_shape=False)
+    doors = np.c_[rng.uniform(1.0, 2.0, 600), np.full(600, 0.35), rng.uniform(1.4, 2.0, 600)]
+    underside = np.c_[rng.uniform(1.0, 2.0, 400), rng.uniform(0.0, 0.35, 400), np.full(400, 1.4)]
+    objects = {InstanceId(1): replace(slab, points=np.vstack([doors, underside]))}
+    edges = [Edge(InstanceId(1), Relation.MOUNTS_ON, Root.WALL, 0.9, wall_id=0)]
+    if with_neighbour:
+        other = box_object(2, "wall cabinet", (0.6, 0.35, 0.6), placed(2.3, 0.175, 1.4), exact_shape=False)
+        pts = np.c_[rng.uniform(2.0, 2.6, 400), np.full(400, 0.35), rng.uniform(1.4, 2.0, 400)]
+        objects[InstanceId(2)] = replace(other, points=pts)
+        edges.append(Edge(InstanceId(2), Relation.MOUNTS_ON, Root.WALL, 0.9, wall_id=0))
+    return objects, SceneGraph(tuple(edges))
+
+
+def test_a_wall_cabinet_seen_from_below_is_completed_back_to_its_wall():
+    from rescene_core.bench.assembly import metric_objects
+    from rescene_core.evaluation.structural import structural_metrics
+
+    objects, graph = _wall_cabinet_seen_from_below()
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    # the slab stays where its doors were seen; its body is added back to the wall
+    np.testing.assert_allclose(layout.world_from_asset[InstanceId(1)], objects[InstanceId(1)].world_from_asset)
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
+    assert world[:, 1].min() == pytest.approx(0.0, abs=1e-6) and world[:, 1].max() >= 0.3
+    metrics = structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())
+    assert metrics["wall_contact_pass"] == 1.0
+    plain = structural_metrics(objects, layout, graph, rect_room())
+    assert plain["wall_contact_pass"] == 0.0  # the slab alone hangs on nothing
+
+
+def test_a_wall_base_keeps_clear_of_the_cabinet_beside_it():
+    objects, graph = _wall_cabinet_seen_from_below(with_neighbour=True)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    (base,) = [c for c in layout.completions()[InstanceId(1)] if c.kind.value == "base"]
+    world = apply(layout.world_from_asset[InstanceId(1)], base.points_asset)
+    neighbour = apply(layout.world_from_asset[InstanceId(2)], objects[InstanceId(2)].vertices)
+    assert world[:, 0].max() <= neighbour[:, 0].min() + 1e-6
+    assert world[:, 0].max() - world[:, 0].min() >= 0.5  # most of its width is kept
