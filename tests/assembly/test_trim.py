@@ -110,3 +110,21 @@ def test_two_completions_filling_the_same_space_are_cut_where_one_was_not_seen()
     # without cuts the overlap stays
     plain = attach(objects, graph, rect_room(), cfg.model_copy(update={"trim_completions": False}))
     assert structural_metrics(metric_objects(objects, plain), plain, graph, rect_room())["collision_pairs"] == 1
+
+
+def test_points_far_behind_a_wall_are_strays_and_the_completion_is_cut_near_the_wall():
+    # a cabinet seen from the room whose cloud carries 3% stray points 7 cm behind the y = 0 wall, its
+    # generated mesh registered reaching as far: no point is seen behind a wall, so the mesh is cut within
+    # 2 cm of it and the cabinet is not pushed 7 cm off its front
+    rng = np.random.default_rng(4)
+    front = np.c_[rng.uniform(1.5, 2.5, 800), np.full(800, 0.5), rng.uniform(0.0, 1.2, 800)]
+    top = np.c_[rng.uniform(1.5, 2.5, 600), rng.uniform(0.0, 0.5, 600), np.full(600, 1.2)]
+    strays = np.c_[rng.uniform(1.5, 2.5, 45), np.full(45, -0.07), rng.uniform(0.0, 1.2, 45)]
+    cabinet = box_object(1, "cabinet", (1.0, 0.57, 1.2), placed(2.0, 0.215), exact_shape=False)
+    cabinet = replace(cabinet, points=np.vstack([front, top, strays]))
+    (cut,) = room_cuts(cabinet, room_from_shell(rect_room()))
+    assert "wall" in cut.source
+    assert cut.points_asset[0][1] + cabinet.world_from_asset[1, 3] >= -0.02 - 1e-9
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    layout = attach({InstanceId(1): cabinet}, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    assert layout.world_from_asset[InstanceId(1)][1, 3] - cabinet.world_from_asset[1, 3] <= 0.021
