@@ -140,6 +140,8 @@ class SegmentConfig(BaseModel):
     min_segment_points: int = 80
     """Fewest thinned points of an object segment (80 points of 2.5 cm: 0.05 m^2 of surface); smaller
     regions join their most touching neighbour."""
+    masks_min_segment_points: int = 60
+    """The least for ``--segment masks``, whose regions are a consensus of views, not fragments of geometry."""
     min_segment_extent: float = 0.1
     """Smallest largest-dimension of an object segment (m)."""
     max_segment_extent: float = 4.0

@@ -105,8 +105,10 @@ def segment_masks(
     t = time.perf_counter()
     region, stats = consensus_regions(sp, votes, T, cfg)
     which, _ = wall_superpoints(sp, planes, cfg)
-    region = _absorb_small(sp.graph, region, cfg)
-    region, drop = _filter_regions(sp, region, which, planes, cfg, flush_by_masks=True)
+    # consensus regions are no fragments of geometry: they keep the smaller least size
+    small = cfg.model_copy(update={"min_segment_points": cfg.masks_min_segment_points})
+    region = _absorb_small(sp.graph, region, small)
+    region, drop = _filter_regions(sp, region, which, planes, small, flush_by_masks=True)
     stats |= drop
     stats["frames_with_masks"] = sum(m is not None for m in frame_masks)
     seconds["merge"] = time.perf_counter() - t
