@@ -20,7 +20,7 @@ so only the camera walk changes with the frame count) captured with each of ``--
 Peak RSS per step or stage: the child samples its own resident set (``/proc/self/statm``) every
 ``SAMPLE_S`` and takes the largest sample inside the step's time window (the run's windows come from its
 run log's stage start and end events, the import's from its report's step timings); the whole process's
-peak is ``getrusage``'s ``ru_maxrss``, which a sample can miss between two reads, never exceed.
+peak is its ``VmHWM`` (``peak_rss_self``), which a sample can miss between two reads, never exceed.
 
 The machine's load average (1 min) is read before each measurement and printed with every figure; figures
 taken under load are slower than on a quiet machine, not comparable across loads.
@@ -100,6 +100,21 @@ def _maxrss_bytes(who: int) -> int:
     return int(resource.getrusage(who).ru_maxrss) * 1024  # Linux reports kilobytes
 
 
+def peak_rss_self() -> int:
+    """This process's own peak resident set (bytes): ``VmHWM`` of ``/proc/self/status``, the high-water mark
+    of its address space. ``getrusage``'s ``ru_maxrss`` is not that: a child started with vfork + exec (as
+    ``subprocess`` starts one) keeps its parent's peak, so a suite that wrote a 600-frame capture reported
+    the parent's 3.73 GB for every child after it. Outside Linux, ``ru_maxrss``."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024  # kB
+    except OSError:
+        pass
+    return _maxrss_bytes(resource.RUSAGE_SELF)
+
+
 def _gb(n: int | None) -> float | None:
     return None if n is None else round(n / 1e9, 3)
 
@@ -129,7 +144,7 @@ def child_import(src: Path, out: Path, result: Path) -> None:
             "frames": report["frames"]["kept"],
             "fps": report["throughput_fps"],
             "steps": steps,
-            "peak_rss_gb": _gb(_maxrss_bytes(resource.RUSAGE_SELF)),
+            "peak_rss_gb": _gb(peak_rss_self()),
         },
     )
 
@@ -172,7 +187,7 @@ def child_run(capture: Path, run_dir: Path, result: Path) -> None:
                 3,
             ),
             "stages": stages,
-            "peak_rss_gb": _gb(_maxrss_bytes(resource.RUSAGE_SELF)),
+            "peak_rss_gb": _gb(peak_rss_self()),
             "children_peak_rss_gb": _gb(_maxrss_bytes(resource.RUSAGE_CHILDREN)),
             "missing": len(done.missing),
             "metrics": {k: metrics[k] for k in sorted(metrics) if isinstance(metrics[k], int | float)},

@@ -46,3 +46,21 @@ def test_frame_counts_on_the_command_line():
     for bad in ("120,x", "1", ""):
         with pytest.raises(argparse.ArgumentTypeError, match="--frames"):
             parse_frames(bad)
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/self/status"), reason="VmHWM is Linux's")
+def test_a_child_reports_its_own_peak_not_its_parents():
+    # a child started by subprocess (vfork + exec) inherits its parent's ru_maxrss; the suite's children
+    # report VmHWM, their own address space's high-water mark
+    import subprocess
+    import sys
+
+    block = np.ones(300_000_000 // 8)  # 300 MB in this (the parent) process, touched
+    probe = (
+        "import resource; from rescene_core.bench.scale import peak_rss_self; "
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, peak_rss_self())"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    del block
+    inherited, own = (int(x) for x in out.stdout.split())
+    assert own < 200e6 < 300e6 <= inherited + 50e6
