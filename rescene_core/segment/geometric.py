@@ -431,7 +431,7 @@ def wall_superpoints(
     flush = np.zeros(n, bool)
     extent = (g.hi - g.lo).max(axis=1)
     # a superpoint that reaches down to the floor or up to the ceiling is no part of a flush object (a door
-    # of the wood of a mirror's frame beside it would take the mirror into the wall)
+    # beside a mirror, of the wood of its frame, would otherwise take the mirror into the wall)
     hangs = (g.lo[:, 2] >= cfg.flush_min_height) & (g.hi[:, 2] <= _ceiling_height(planes) - cfg.flush_ceiling_gap)
     for plane in planes:
         if plane["kind"] != "wall":
