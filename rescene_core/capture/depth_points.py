@@ -77,11 +77,12 @@ def scene_points(
     """All frames' valid depth fused into one voxel-thinned cloud [n, 3] (for alignment and planes)."""
     import open3d as o3d
 
-    # frame by frame into Open3D's array (no list of every frame's points beside their float64 copy)
-    pcd = o3d.geometry.PointCloud()
+    chunks = []
     for t in range(len(depth)):
         p, _, _ = backproject(depth[t], K[t], world_from_cam[t], np.ones(depth[t].shape, bool), stride)
-        pcd.points.extend(o3d.utility.Vector3dVector(p.astype(np.float64)))
+        chunks.append(p)
+    pts = np.concatenate(chunks) if chunks else np.zeros((0, 3), np.float32)
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
     return np.asarray(pcd.voxel_down_sample(voxel).points)
 
 
@@ -136,13 +137,10 @@ def instance_points(
             per_id.setdefault(int(lab[a]), []).append((pts[a:b], col[a:b]))
     clouds: dict[int, tuple[NDArray[np.float32], NDArray[np.uint8]]] = {}
     for iid in sorted(per_id):
-        # frame by frame into Open3D's own arrays, the frames' pieces freed as they go: a floor or a wall
-        # seen in every frame of a long scan has millions of points, and whole-array float64 copies of
-        # them (points, colours, then Open3D's) were the import's peak memory (the same values, in order)
-        pcd = o3d.geometry.PointCloud()
-        for pts, col in per_id.pop(iid):
-            pcd.points.extend(o3d.utility.Vector3dVector(pts.astype(np.float64)))
-            pcd.colors.extend(o3d.utility.Vector3dVector(col.astype(np.float64) / 255.0))
+        pts = np.concatenate([p for p, _ in per_id[iid]]).astype(np.float64)
+        col = np.concatenate([c for _, c in per_id[iid]]).astype(np.float64) / 255.0
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+        pcd.colors = o3d.utility.Vector3dVector(col)
         pcd = pcd.voxel_down_sample(cfg.structure_voxel if iid in structural else cfg.object_voxel)
         if len(pcd.points) > cfg.outlier_neighbors:
             n0 = len(pcd.points)
