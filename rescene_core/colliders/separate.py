@@ -50,8 +50,10 @@ from rescene_core.colliders.pieces import (
     slice_piece,
 )
 
-MIN_DEPTH = 0.002
-"""Pieces overlapping less than this (m) are left as they are (MuJoCo resolves millimetres quietly)."""
+MIN_DEPTH = 0.0005
+"""Pieces overlapping less than this (m) are left as they are. MuJoCo resolves millimetres quietly, but a
+position-based engine (Newton's XPBD) turns a t = 0 overlap into velocity, depth / time step: 1.5 mm at 1 ms
+is 1.5 m/s."""
 INSIDE_TOLERANCE = 0.005
 """An object's surface point within this distance (m) outside one of its pieces counts as inside it."""
 SEPARATE_TOLERANCE = 0.005

@@ -41,6 +41,11 @@ def test_pieces_grazing_a_wall_are_cut_at_its_plane_and_deep_ones_are_left():
     deep = lamp(MAX_DEPTH + 0.03)
     kept, none = clear_of_walls(placement(deep), pieces, trimmed_walls(CORNER_SHELL))
     assert none == {} and kept[0] is pieces[0]
+    # a crossing of a millimetre is cut as well: a position-based engine would throw it off at t = 0
+    graze = lamp(0.001)
+    cut, depth = clear_of_walls(placement(graze), pieces, trimmed_walls(CORNER_SHELL))
+    assert depth == {"0": pytest.approx(0.001), "1": pytest.approx(0.001)}
+    assert placement(graze).world(cut[0][0])[:, :2].min() == pytest.approx(-2.0, abs=1e-9)
 
 
 def test_a_wall_plane_beyond_its_segment_cuts_nothing():

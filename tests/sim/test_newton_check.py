@@ -50,7 +50,9 @@ def test_newton_reads_the_usd_and_agrees_with_mujoco_on_clear_cases(run_dir, che
     assert by_node["obj_2_cabinet"]["translation"] == pytest.approx(0.3, abs=0.03)
     assert by_node["obj_3_cabinet"]["penetration_t0"] == pytest.approx(0.01, abs=3e-3)
     s = record["summary"]
-    assert (s["free"], s["fixed"], s["fell_through"], s["escaped"]) == (3, 1, 0, 0)
+    # the sunk box: XPBD's 8 iterations project it out of the floor within one 1 ms step, and the push
+    # becomes velocity: it leaves the room
+    assert (s["free"], s["fixed"], s["fell_through"], s["escaped"]) == (3, 1, 0, 1)
     assert record["engine"] == "newton" and record["config"]["timestep"] == pytest.approx(0.001)
     # the sunk box: MuJoCo's soft contact lifts it 1 cm; XPBD projects it out and it jumps: named, with why
     (d,) = record["disagreements"]
