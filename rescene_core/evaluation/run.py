@@ -168,24 +168,22 @@ def evaluate_run(
         timings["rendering"] = time.perf_counter() - t0
         timings["rendering_cpu"] = time.process_time() - c0
 
-    physics = RunPaths(run_dir).simcheck
-    if physics.exists():
+    checks = (
+        ("physics", RunPaths(run_dir).simcheck, "run `rescene simcheck RUN`"),
+        (
+            "physics_newton",
+            RunPaths(run_dir).simcheck_newton,
+            "`--set sim.newton=true` in the flow, or `rescene simcheck RUN --engine newton`",
+        ),
+    )
+    for key, path, how in checks:  # the physics checks' own files, as they are
+        if not path.exists():
+            not_computed[key] = f"no {path.parent.name}/{path.name} ({how})"
+            continue
         try:
-            metrics["physics"] = read_json(physics)
+            metrics[key] = read_json(path)
         except ValueError as err:
-            not_computed["physics"] = f"{physics} is not valid JSON: {err}"
-    else:
-        not_computed["physics"] = "no sim/simcheck.json (run `rescene simcheck RUN`)"
-    newton = RunPaths(run_dir).simcheck_newton
-    if newton.exists():
-        try:
-            metrics["physics_newton"] = read_json(newton)
-        except ValueError as err:
-            not_computed["physics_newton"] = f"{newton} is not valid JSON: {err}"
-    else:
-        not_computed["physics_newton"] = (
-            "no sim/simcheck-newton.json (`--set sim.newton=true` in the flow, or `rescene simcheck RUN --engine newton`)"
-        )
+            not_computed[key] = f"{path} is not valid JSON: {err}"
 
     if doc is not None and cap is not None:
         t0, c0 = time.perf_counter(), time.process_time()
