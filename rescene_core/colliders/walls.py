@@ -6,7 +6,10 @@ has a solid box behind each wall's plane (``shell.wall_boxes``): a free body sta
 pushed out at t = 0, and a tall one (a floor lamp in a corner) tips over. A piece of a free body that crosses
 a wall's plane by at most ``MAX_DEPTH``, where the wall's box is (along its trimmed extent,
 ``shell.wall_extent``), is cut at the plane and keeps its room side (a convex piece cut by a plane stays
-convex). A deeper crossing is a layout fault: it is left as it is, and the physics check reports it.
+convex). A deeper crossing of the mesh itself is a layout fault: its pieces are left as they are, and the
+physics check reports it. A piece the export added (a board under a child's foot, a base, a plinth) that
+crosses deeper while the mesh does not is cut whatever its depth: a desk's board under a monitor whose foot
+was registered behind the wall reached 64 mm into it.
 Crossings of a fraction of a millimetre are cut too: a position-based solver (Newton's XPBD) turns a t = 0
 overlap into velocity, depth / time step, and a book stack 1.6 mm into a wall left it at 1 m/s and fell 44 cm.
 """
@@ -52,12 +55,21 @@ def clear_of_walls(
     place: Placement, pieces: list[Piece], walls: list[TrimmedWall]
 ) -> tuple[list[Piece], dict[str, float]]:
     """``pieces`` (body frame) cut at the planes of the ``walls`` (``trimmed_walls``) whose boxes they reach
-    into by at most ``MAX_DEPTH``; returns the pieces and {wall id: deepest crossing cut (m)}."""
+    into by at most ``MAX_DEPTH``, or by any depth where the object's mesh itself keeps within ``MAX_DEPTH``
+    of the plane (the piece is one the export added); returns the pieces and {wall id: deepest crossing cut
+    (m)}."""
     out = list(pieces)
     cut: dict[str, float] = {}
+    mesh = place.world(place.vertices)
     for wall, start, tangent, length in walls:
         normal = np.asarray(wall.plane.normal, np.float64)
         origin = -float(wall.plane.offset) * normal
+        # the layout's own crossing: when the mesh keeps within MAX_DEPTH of the plane, a deeper piece is one the
+        # export added (a board under a child's foot registered behind the wall), cut whatever its depth
+        mesh_signed = mesh @ normal + float(wall.plane.offset)
+        mesh_along = (mesh[:, :2] - start) @ tangent
+        on_wall = (mesh_along >= 0) & (mesh_along <= length)
+        limit = MAX_DEPTH if (mesh_signed[on_wall] < -MAX_DEPTH).any() else np.inf
         for k, piece in enumerate(out):
             world = place.world(piece[0])
             signed = world @ normal + float(wall.plane.offset)
@@ -66,7 +78,7 @@ def clear_of_walls(
                 continue
             along = (world[behind, :2] - start) @ tangent
             depth = float(-signed.min())
-            if depth > MAX_DEPTH or along.max() < 0 or along.min() > length:
+            if depth > limit or along.max() < 0 or along.min() > length:
                 continue  # a layout fault, or the plane beyond the wall's box (another wing of the room)
             kept = slice_piece((world, piece[1]), normal, origin)
             if not is_solid(kept):

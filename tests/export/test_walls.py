@@ -48,6 +48,18 @@ def test_pieces_grazing_a_wall_are_cut_at_its_plane_and_deep_ones_are_left():
     assert placement(graze).world(cut[0][0])[:, :2].min() == pytest.approx(-2.0, abs=1e-9)
 
 
+def test_a_piece_the_export_added_is_cut_at_the_wall_whatever_its_depth():
+    # the lamp's mesh grazes the walls by 5 mm; a board under it reaches 6 cm behind one: not a layout fault
+    obj = lamp(0.005)
+    place = placement(obj)
+    post = trimesh.creation.box(bounds=[[0.1, 0.1, 0.0], [0.3, 0.3, 1.0]])
+    board = trimesh.creation.box(bounds=[[0.1, -0.06, 0.0], [0.3, 0.3, 0.02]])  # body frame, 6 cm past y = 0
+    pieces = [(np.asarray(p.vertices, np.float64), np.asarray(p.faces, np.int64)) for p in (post, board)]
+    cut, depth = clear_of_walls(place, pieces, trimmed_walls(CORNER_SHELL))
+    assert depth == {"0": pytest.approx(0.065)}
+    assert place.world(cut[1][0])[:, 1].min() == pytest.approx(-2.0, abs=1e-9)
+
+
 def test_a_wall_plane_beyond_its_segment_cuts_nothing():
     short = RoomShell(
         floor=CORNER_SHELL.floor,
