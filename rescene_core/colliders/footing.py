@@ -119,7 +119,7 @@ def footing(
     if holding:  # none resists the tilt: the first that holds the centre at all
         return holding[0]
     if carried_from is not None:
-        block, said = plinth(place, pieces, com_w, carried_from, others)
+        block, said = plinth(place, cw, com_w, carried_from, others)
         if block is not None and said is not None:
             return block, said | {"support_margin_before_m": round(margin, 4)}
         blocked = blocked or said is not None
@@ -133,12 +133,13 @@ def footing(
 
 def plinth(
     place: Placement,
-    pieces: list[Piece],
+    cw: NDArray,
     com_w: NDArray,
     carried_from: float,
     others: NDArray | None,
 ) -> tuple[Piece | None, dict[str, Any] | None]:
-    """A plinth (body frame) under everything an object's collider spans in plan, from its lowest point up
+    """A plinth (body frame) under everything an object's collider (``cw``: its pieces' vertices, world [n, 3])
+    spans in plan, from its lowest point up
     to just under the boards what it carries stands on (``carried_from`` less a board and
     ``PLINTH_CLEARANCE``), when that holds ``com_w`` (world, with its load) ``FOOTING_MARGIN`` inside and
     reaches into none of ``others``. (None, None) when it would not hold the centre or has no height; (None,
@@ -148,7 +149,6 @@ def plinth(
     seen from the front 9 cm deep) under things the capture saw standing 20-30 cm further back; their boards
     reach past the body, which tips under their weight. The capture says the object carries them there, so
     its body reaches under them."""
-    cw = place.world(np.vstack([v for v, _ in pieces]))
     zmin = float(cw[:, 2].min())
     top = carried_from - BOARD_THICKNESS - PLINTH_CLEARANCE
     if top < zmin + FOOTING_MIN_BAND:
