@@ -5,9 +5,19 @@ A real panoptic output is least reliable along mask boundaries, exactly where de
 object to what is behind it; a boundary pixel would put a point of the wall into the chair's cloud. So
 each mask is eroded by a few pixels and pixels at depth edges (a relative jump to a neighbour above a
 threshold) are left out before back-projection.
+
+Both fusions read the frames one at a time (numpy arrays or frames on disk, ``capture.format.FrameData``).
+``instance_points`` appends each instance's back-projected points to its own file in a temporary
+directory every ``SPILL_FRAMES`` frames and fuses one instance at a time, so it holds the largest
+instance's points, not every instance's; the fused clouds are those of fusing all points at once (same
+points, same order).
 """
 
 from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +48,10 @@ class DepthPointsConfig(BaseModel):
     """Largest cloud kept per instance (evenly subsampled, deterministic)."""
     min_points: int = 20
     """Instances with fewer fused points get no cloud."""
+
+
+SPILL_FRAMES = 32
+"""Frames whose back-projected instance points are kept in memory before they go to the spill files."""
 
 
 def depth_edges(depth: NDArray[np.float32], ratio: float) -> NDArray[np.bool_]:
@@ -72,42 +86,79 @@ def backproject(
 
 
 def scene_points(
-    depth: NDArray[np.float32], K: NDArray, world_from_cam: NDArray, stride: int = 4, voxel: float = 0.03
+    depth: Any, K: NDArray, world_from_cam: NDArray, stride: int = 4, voxel: float = 0.03
 ) -> NDArray[np.float64]:
-    """All frames' valid depth fused into one voxel-thinned cloud [n, 3] (for alignment and planes)."""
+    """All frames' valid depth fused into one voxel-thinned cloud [n, 3] (for alignment and planes).
+
+    depth: [T, H, W] float32 metres (numpy or ``FrameData``, read a frame at a time); K [T, 3, 3];
+    world_from_cam [T, 4, 4]. Holds every ``stride``-th pixel's point of every frame (0.23 MB a 640x480
+    frame at stride 4) until the voxel pass."""
     import open3d as o3d
 
     chunks = []
-    for t in range(len(depth)):
-        p, _, _ = backproject(depth[t], K[t], world_from_cam[t], np.ones(depth[t].shape, bool), stride)
+    for t in range(int(depth.shape[0])):
+        d = np.asarray(depth[t])
+        p, _, _ = backproject(d, K[t], world_from_cam[t], np.ones(d.shape, bool), stride)
         chunks.append(p)
-    pts = np.concatenate(chunks) if chunks else np.zeros((0, 3), np.float32)
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
+    pts = np.concatenate(chunks, dtype=np.float64) if chunks else np.zeros((0, 3))
+    del chunks
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+    del pts
     return np.asarray(pcd.voxel_down_sample(voxel).points)
 
 
 def instance_points(
-    depth: NDArray[np.float32],
-    masks: NDArray[np.int32],
-    rgb: NDArray[np.uint8],
+    depth: Any,
+    masks: Any,
+    rgb: Any,
     K: NDArray,
     world_from_cam: NDArray,
     structural: set[int],
     config: DepthPointsConfig | None = None,
+    spill_dir: str | Path | None = None,
 ) -> tuple[dict[int, tuple[NDArray[np.float32], NDArray[np.uint8]]], dict[str, int]]:
     """Per-instance fused clouds {id: (points float32 [n, 3] world m, colours uint8 [n, 3])} and counts
     of what was left out ({"eroded": pixels, "depth_edges": pixels, "outliers": points}).
 
-    depth, masks: [T, H, W]; rgb [T, H, W, 3]; K [T, 3, 3]; world_from_cam [T, 4, 4] (OpenCV axes).
-    structural: ids fused at the coarser structure voxel.
+    depth, masks: [T, H, W]; rgb [T, H, W, 3] (numpy or ``FrameData``, read a frame at a time);
+    K [T, 3, 3]; world_from_cam [T, 4, 4] (OpenCV axes). structural: ids fused at the coarser structure voxel.
+    spill_dir: where the temporary per-instance point files go (default: the system's temporary directory).
     """
+    with tempfile.TemporaryDirectory(prefix="rescene-points-", dir=spill_dir) as spill:
+        return _instance_points(
+            depth, masks, rgb, K, world_from_cam, structural, config or DepthPointsConfig(), Path(spill)
+        )
+
+
+def _instance_points(
+    depth: Any,
+    masks: Any,
+    rgb: Any,
+    K: NDArray,
+    world_from_cam: NDArray,
+    structural: set[int],
+    cfg: DepthPointsConfig,
+    spill: Path,
+) -> tuple[dict[int, tuple[NDArray[np.float32], NDArray[np.uint8]]], dict[str, int]]:
     import open3d as o3d
 
-    cfg = config or DepthPointsConfig()
-    per_id: dict[int, list[tuple[NDArray, NDArray]]] = {}
+    per_id: dict[int, list[tuple[NDArray, NDArray]]] = {}  # points of the frames since the last spill
+    spilled: set[int] = set()
+
+    def flush() -> None:
+        for iid, parts in per_id.items():
+            with open(spill / f"{iid}.xyz", "ab") as fp, open(spill / f"{iid}.rgb", "ab") as fc:
+                for p, c in parts:
+                    fp.write(np.ascontiguousarray(p, np.float32).tobytes())
+                    fc.write(np.ascontiguousarray(c, np.uint8).tobytes())
+            spilled.add(iid)
+        per_id.clear()
+
     stats = {"eroded_pixels": 0, "depth_edge_pixels": 0, "outlier_points": 0}
     r = max(0, int(cfg.erode_px))
-    for t in range(len(masks)):
+    for t in range(int(masks.shape[0])):
+        if t % SPILL_FRAMES == 0:
+            flush()
         m = np.asarray(masks[t])
         d = np.asarray(depth[t])
         ids = np.unique(m)
@@ -135,12 +186,18 @@ def instance_points(
         cuts = np.flatnonzero(np.diff(lab)) + 1
         for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(lab)]])):
             per_id.setdefault(int(lab[a]), []).append((pts[a:b], col[a:b]))
+    flush()
     clouds: dict[int, tuple[NDArray[np.float32], NDArray[np.uint8]]] = {}
-    for iid in sorted(per_id):
-        pts = np.concatenate([p for p, _ in per_id[iid]]).astype(np.float64)
-        col = np.concatenate([c for _, c in per_id[iid]]).astype(np.float64) / 255.0
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-        pcd.colors = o3d.utility.Vector3dVector(col)
+    for iid in sorted(spilled):
+        # one instance's points, in frame order as they were spilled
+        pcd = o3d.geometry.PointCloud(
+            o3d.utility.Vector3dVector(np.fromfile(spill / f"{iid}.xyz", np.float32).reshape(-1, 3).astype(np.float64))
+        )
+        pcd.colors = o3d.utility.Vector3dVector(
+            np.fromfile(spill / f"{iid}.rgb", np.uint8).reshape(-1, 3).astype(np.float64) / 255.0
+        )
+        (spill / f"{iid}.xyz").unlink()
+        (spill / f"{iid}.rgb").unlink()
         pcd = pcd.voxel_down_sample(cfg.structure_voxel if iid in structural else cfg.object_voxel)
         if len(pcd.points) > cfg.outlier_neighbors:
             n0 = len(pcd.points)

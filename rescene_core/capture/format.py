@@ -17,14 +17,24 @@ Layout (docs/capture-format.md is the user-facing description):
 Writing is atomic: the group is built in a sibling temporary directory and renamed into place. The
 writer stamps the store with its content hash (``rescene_core.capture.identity``).
 Reading is lazy for the per-pixel arrays (zarr arrays, one chunk per frame) and eager for the rest.
+
+The per-pixel arrays of a ``CaptureArrays`` may be numpy arrays or frames kept on disk (``FrameStore``, an
+importer's staging store, and ``FrameMap``, such frames changed slab by slab as they are read): the writer
+copies them ``FRAME_SLAB`` frames at a time, and takes a staged array's encoded chunk files as they are
+(hard links where the file system allows) when its chunks and codecs are the capture's, so an import of any
+length holds a few frames in memory, never the whole capture.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import zarr
@@ -36,6 +46,139 @@ from rescene_core.records import Camera, Instance, InstanceId, InstancePoints
 
 FORMAT_NAME = "rescene-capture"
 FORMAT_VERSION = 1
+FRAME_SLAB = 16
+"""Frames the writer copies at a time from frames that are not in memory (16 640x480 frames: 55 MB)."""
+
+
+class FrameData(Protocol):
+    """A per-pixel array of T frames that can be sliced along its first axis: a numpy array, a zarr array,
+    ``StoredFrames`` or ``FrameMap``. ``frames[a:b]`` (or ``frames[t]``) gives a numpy array."""
+
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+
+    @property
+    def dtype(self) -> Any: ...
+
+    def __getitem__(self, key: Any) -> Any: ...
+
+
+class StoredFrames:
+    """A per-pixel zarr array of T frames read as numpy: ``frames[t]`` or ``frames[a:b]`` decodes only those
+    frames; ``len``, ``shape``, ``dtype`` and ``ndim`` as a numpy array's; ``np.asarray(frames)`` reads all."""
+
+    def __init__(self, array: zarr.Array):
+        self.array = array
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(int(n) for n in self.array.shape)
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return np.dtype(self.array.dtype)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.array.shape)
+
+    def __len__(self) -> int:
+        return int(self.array.shape[0])
+
+    def __getitem__(self, key: Any) -> Any:
+        return np.asarray(self.array[key])
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
+        out = np.asarray(self.array[...])
+        return out if dtype is None else out.astype(dtype, copy=False)
+
+
+class FrameMap:
+    """Frames of ``base`` passed through ``fn`` (numpy [n, ...] -> the same shape and ``dtype``) as they are
+    read, a slab at a time: e.g. masks with some ids cleared, without a second copy of every frame."""
+
+    def __init__(self, base: FrameData, fn: Callable[[NDArray[Any]], NDArray[Any]], dtype: Any = None):
+        self.base = base
+        self.fn = fn
+        self._dtype = np.dtype(dtype if dtype is not None else base.dtype)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(int(n) for n in self.base.shape)
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        return self._dtype
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, (int, np.integer)):
+            return self.fn(np.asarray(self.base[int(key) : int(key) + 1]))[0]
+        if isinstance(key, slice) and key.step in (None, 1):
+            return self.fn(np.asarray(self.base[key]))
+        raise TypeError(f"FrameMap is read by frame or by a slice of frames, not {key!r}")
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
+        out = self[0 : self.shape[0]]
+        return out if dtype is None else out.astype(dtype, copy=False)
+
+
+def iter_slabs(frames: FrameData, slab: int = FRAME_SLAB) -> Any:
+    """(start, numpy frames [n, ...]) of ``frames`` in order, ``slab`` frames at a time."""
+    n = int(frames.shape[0])
+    for a in range(0, n, slab):
+        yield a, np.asarray(frames[a : min(a + slab, n)])
+
+
+class FrameStore:
+    """Frames written into a temporary zarr group as they are read, one chunk per frame (the capture's own
+    chunks and codec), so an importer holds a few frames at a time; the capture writer takes the encoded
+    chunks over without decoding them. The directory is removed when the store is garbage-collected (or
+    ``close``); ``dir``: where to put it (default: the system's temporary directory, ``$TMPDIR``).
+
+    rgb uint8 [T, H, W, 3], depth float32 [T, H, W] (``has_depth``), masks int32 [T, H, W] (``has_masks``),
+    each a ``StoredFrames``; ``truncate(n)`` keeps the first n frames (frames that could not be read)."""
+
+    def __init__(
+        self, frames: int, height: int, width: int, has_depth: bool, has_masks: bool, dir: str | Path | None = None
+    ):
+        self.path = Path(tempfile.mkdtemp(prefix="rescene-frames-", dir=dir))
+        self._cleanup = weakref.finalize(self, shutil.rmtree, str(self.path), True)
+        group = zarr.open_group(str(self.path), mode="w", zarr_format=3)
+        t, h, w = int(frames), int(height), int(width)
+
+        def make(name: str, shape: tuple[int, ...], dtype: Any) -> StoredFrames:
+            arr = group.create_array(name, shape=shape, dtype=dtype, chunks=(1, *shape[1:]), compressors=[_codec()])
+            return StoredFrames(arr)
+
+        self.rgb = make("rgb", (t, h, w, 3), np.uint8)
+        self.depth = make("depth", (t, h, w), np.float32) if has_depth else None
+        self.masks = make("instance", (t, h, w), np.int32) if has_masks else None
+
+    def write(
+        self, start: int, rgb: NDArray[np.uint8], depth: NDArray[np.float32] | None, masks: NDArray[np.int32] | None
+    ) -> None:
+        """Frames start .. start + len(rgb) - 1 (numpy [n, H, W(, 3)])."""
+        stop = start + len(rgb)
+        self.rgb.array[start:stop] = rgb
+        if self.depth is not None and depth is not None:
+            self.depth.array[start:stop] = depth
+        if self.masks is not None and masks is not None:
+            self.masks.array[start:stop] = masks
+
+    def truncate(self, frames: int) -> None:
+        for stored in (self.rgb, self.depth, self.masks):
+            if stored is not None and stored.shape[0] != frames:
+                stored.array.resize((frames, *stored.shape[1:]))
+
+    def close(self) -> None:
+        self._cleanup()
 
 
 @dataclass(frozen=True)
@@ -44,21 +187,23 @@ class CaptureArrays:
 
     rgb: uint8 [T, H, W, 3]. K: float64 [T, 3, 3]. world_from_cam: float64 [T, 4, 4].
     instance_masks: int32 [T, H, W] (0 = none). depth: float32 [T, H, W] metres along z, or None.
+    The per-pixel arrays (rgb, instance_masks, depth) may be frames on disk (``FrameData``); the writer
+    reads them a slab at a time.
     instances: one record per id appearing in masks or point clouds.
     point_ids: int32 [N]; point_offsets: int64 [N + 1]; points: float32 [M, 3]; colors: uint8 [M, 3].
     """
 
     scene_id: str
-    rgb: NDArray[np.uint8]
+    rgb: NDArray[np.uint8] | FrameData
     K: NDArray[np.float64]
     world_from_cam: NDArray[np.float64]
-    instance_masks: NDArray[np.int32]
+    instance_masks: NDArray[np.int32] | FrameData
     instances: tuple[Instance, ...]
     point_ids: NDArray[np.int32]
     point_offsets: NDArray[np.int64]
     points: NDArray[np.float32]
     colors: NDArray[np.uint8]
-    depth: NDArray[np.float32] | None = None
+    depth: NDArray[np.float32] | FrameData | None = None
     source: str = "unknown"
     extra_attrs: dict[str, Any] = field(default_factory=dict)
 
@@ -92,6 +237,47 @@ def write_array(group: zarr.Group, name: str, data: NDArray, chunks: tuple[int, 
         arr[...] = data
 
 
+def write_frames(group: zarr.Group, name: str, data: NDArray[Any] | FrameData) -> None:
+    """Write a per-pixel array of T frames [T, H, W(, C)] into ``group`` with one chunk per frame.
+
+    A numpy array is written at once. Frames on disk are copied ``FRAME_SLAB`` frames at a time, and a
+    ``StoredFrames`` whose zarr metadata (shape, dtype, chunks, codecs) is the new array's gives its
+    encoded chunk files as they are: hard links (copies across file systems), nothing decoded."""
+    if isinstance(data, np.ndarray):
+        write_array(group, name, data, (1, *data.shape[1:]))
+        return
+    shape = tuple(int(n) for n in data.shape)
+    arr = group.create_array(
+        name, shape=shape, dtype=np.dtype(data.dtype), chunks=(1, *shape[1:]), compressors=[_codec()]
+    )
+    if isinstance(data, StoredFrames) and _take_chunks(data.array, arr):
+        return
+    for a, slab in iter_slabs(data):
+        arr[a : a + len(slab)] = slab
+
+
+def _take_chunks(src: zarr.Array, dst: zarr.Array) -> bool:
+    """Hard-link (else copy) the chunk files of ``src`` into the empty array ``dst`` when both live in local
+    directories and their metadata agree (the same encoded bytes mean the same frames); False otherwise."""
+    if not (isinstance(src.store, zarr.storage.LocalStore) and isinstance(dst.store, zarr.storage.LocalStore)):
+        return False
+    if src.metadata.to_dict() != dst.metadata.to_dict():
+        return False
+    src_dir = Path(src.store.root) / src.path
+    dst_dir = Path(dst.store.root) / dst.path
+    for dirpath, _, files in os.walk(src_dir):
+        rel = Path(dirpath).relative_to(src_dir)
+        for f in files:
+            if rel == Path(".") and f == "zarr.json":
+                continue
+            (dst_dir / rel).mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(Path(dirpath) / f, dst_dir / rel / f)
+            except OSError:
+                shutil.copy2(Path(dirpath) / f, dst_dir / rel / f)
+    return True
+
+
 def write_capture(
     path: str | Path,
     capture: CaptureArrays,
@@ -120,13 +306,12 @@ def write_capture(
             }
         )
         frames = root.create_group("frames")
-        t, h, w = capture.instance_masks.shape
-        write_array(frames, "rgb", capture.rgb, (1, h, w, 3))
+        write_frames(frames, "rgb", capture.rgb)
         write_array(frames, "K", capture.K)
         write_array(frames, "world_from_cam", capture.world_from_cam)
-        write_array(frames, "instance", capture.instance_masks, (1, h, w))
+        write_frames(frames, "instance", capture.instance_masks)
         if capture.depth is not None:
-            write_array(frames, "depth", capture.depth, (1, h, w))
+            write_frames(frames, "depth", capture.depth)
         inst = root.create_group("instances")
         write_array(inst, "ids", capture.point_ids)
         write_array(inst, "offsets", capture.point_offsets)

@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 from PIL import Image
 from pydantic import BaseModel, ConfigDict
 
+from rescene_core.capture.format import FrameData, FrameStore, iter_slabs
+
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
 """Image files an importer reads (lower-case suffixes)."""
 
@@ -111,22 +113,27 @@ class SourceFrames:
     the source's world frame. masks: int32 [T, H, W] instance ids (0 = none) or None. labels: id ->
     (label, structural) for the ids in ``masks``. dropped: frames left out and why. notes: what the
     importer decided (resizing, conventions) in words.
+
+    The per-pixel arrays are numpy arrays or frames on disk (``load_frames`` writes them into a
+    ``FrameStore``, kept in ``store``): index them per frame or by a slice of frames.
     """
 
     source: str
     src: Path
     names: list[str]
-    rgb: NDArray[np.uint8]
-    depth: NDArray[np.float32] | None
+    rgb: NDArray[np.uint8] | FrameData
+    depth: NDArray[np.float32] | FrameData | None
     K: NDArray[np.float64]
     world_from_cam: NDArray[np.float64]
-    masks: NDArray[np.int32] | None = None
+    masks: NDArray[np.int32] | FrameData | None = None
     labels: dict[int, tuple[str, bool]] = field(default_factory=dict)
     dropped: list[Dropped] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     frames_in_source: int = 0
     render_masks: Callable[[SourceFrames], None] | None = None
     """Set by importers whose masks come from a labelled mesh: fills ``masks`` after alignment checks."""
+    store: FrameStore | None = None
+    """The temporary store holding the frames (removed with it), when they are on disk."""
 
 
 STRUCTURAL_LABELS = frozenset({"floor", "wall", "ceiling"})
@@ -309,7 +316,8 @@ def check_pose(pose: NDArray, tolerance: float) -> tuple[NDArray[np.float64] | N
 
 
 READ_CHUNK = 32
-"""Frames decoded per batch of the reading threads (each batch goes into the output arrays at once)."""
+"""Frames decoded per batch of the reading threads (each batch is written into the frame store at once:
+32 640x480 frames hold 110 MB)."""
 
 
 def read_parallel(fn: Callable[[int], Any], n: int, threads: int) -> list[Any]:
@@ -428,10 +436,11 @@ def load_frames(
             return err
         return rgb, depth, mask
 
-    # Frames are decoded a chunk at a time straight into the output arrays (allocated once, lazily paged
-    # in by the OS), so reading holds the capture once, not a list of decoded frames beside its copy.
+    # Frames are decoded a chunk at a time and written into a temporary zarr store with the capture's own
+    # chunks and codec (``FrameStore``); the capture writer takes those chunk files over, so reading holds
+    # one chunk of frames, whatever the scan's length.
     n_ok = len(ok)
-    rgb_out = depth_out = mask_out = None
+    store: FrameStore | None = None
     K_out = np.zeros((n_ok, 3, 3))
     kept: list[int] = []
     resized_rgb = resized_depth = False
@@ -439,48 +448,56 @@ def load_frames(
     for lo in range(0, n_ok, READ_CHUNK):
         chunk = range(lo, min(lo + READ_CHUNK, n_ok))
         loaded = read_parallel(functools.partial(_offset_call, read, lo), len(chunk), opts.threads)
+        first = len(kept)
+        rgbs: list[NDArray] = []
+        depths: list[NDArray] = []
+        masks: list[NDArray] = []
         for j, item in zip(chunk, loaded, strict=True):
             k = ok[j]
             if isinstance(item, ImportInputError):
                 dropped.append(Dropped(source_index[k], rgb_files[k].name, f"unreadable: {item}"))
                 continue
             rgb, depth, mask = item
-            if rgb_out is None:
+            if store is None:
                 if size is None:
                     ref = depth if depth is not None else rgb
                     size = (ref.shape[1], ref.shape[0])
                 w, h = size
-                rgb_out = np.zeros((n_ok, h, w, 3), np.uint8)
-                depth_out = np.zeros((n_ok, h, w), np.float32) if depth_files is not None else None
-                mask_out = np.zeros((n_ok, h, w), np.int32) if mask_files is not None else None
-            i = len(kept)
+                store = FrameStore(n_ok, h, w, depth_files is not None, mask_files is not None)
             K = np.asarray(Ks[k], np.float64).copy()
             if rgb.shape[:2] != (h, w):
                 K = scale_intrinsics(K, rgb.shape[1], rgb.shape[0], w, h)
                 rgb = resize(rgb, w, h, nearest=False)
                 resized_rgb = True
-            rgb_out[i] = rgb
-            K_out[i] = K
-            if depth is not None and depth_out is not None:
+            rgbs.append(rgb)
+            K_out[len(kept)] = K
+            if depth is not None:
                 if depth.shape != (h, w):
                     depth = resize(depth, w, h, nearest=True)
                     resized_depth = True
-                depth_out[i] = depth
-            if mask is not None and mask_out is not None:
-                mask_out[i] = mask if mask.shape == (h, w) else resize(mask, w, h, nearest=True)
+                depths.append(depth)
+            if mask is not None:
+                masks.append(mask if mask.shape == (h, w) else resize(mask, w, h, nearest=True))
             kept.append(j)
+        del loaded
+        if store is not None and rgbs:
+            store.write(
+                first,
+                np.stack(rgbs),
+                np.stack(depths) if depths else None,
+                np.stack(masks).astype(np.int32, copy=False) if masks else None,
+            )
     unreadable = sum(1 for d in dropped if d.reason.startswith("unreadable"))
-    if rgb_out is None or not kept or unreadable > opts.max_unreadable_fraction * n_ok:
-        first = next((d for d in dropped if d.reason.startswith("unreadable")), None)
+    if store is None or not kept or unreadable > opts.max_unreadable_fraction * n_ok:
+        first_bad = next((d for d in dropped if d.reason.startswith("unreadable")), None)
         raise ImportInputError(
             f"{src}: {unreadable} of {n_ok} frames are unreadable"
-            + (f" (first: {first.reason})" if first else "")
+            + (f" (first: {first_bad.reason})" if first_bad else "")
             + "; re-export the images"
         )
-    n = len(kept)  # the arrays' unread tail (dropped frames) is sliced off: views, no copy
-    rgb_out, K_out = rgb_out[:n], K_out[:n]
-    depth_out = None if depth_out is None else depth_out[:n]
-    mask_out = None if mask_out is None else mask_out[:n]
+    n = len(kept)  # the store's unwritten tail (dropped frames) is cut off
+    store.truncate(n)
+    K_out = K_out[:n]
     notes: list[str] = []
     if resized_rgb:
         notes.append(f"colour resized to {w}x{h} (intrinsics scaled to match)")
@@ -491,15 +508,37 @@ def load_frames(
         source=source,
         src=src,
         names=[names[ok[j]] for j in kept],
-        rgb=rgb_out,
-        depth=depth_out,
+        rgb=store.rgb,
+        depth=store.depth,
         K=K_out,
         world_from_cam=pose_out,
-        masks=mask_out,
+        masks=store.masks,
+        store=store,
         dropped=sorted(dropped, key=lambda d: d.frame),
         notes=notes,
         frames_in_source=frames_in_source or len(poses),
     )
+
+
+def mask_id_counts(masks: NDArray[np.integer] | FrameData, where: Path | str) -> NDArray[np.int64]:
+    """Pixels per instance id over every frame, [max id + 1] int64, read a slab of frames at a time; an
+    ImportInputError naming ``where`` for ids outside 0..2^31-1."""
+    counts = np.zeros(1, np.int64)
+    for _, slab in iter_slabs(masks):
+        if not slab.size:
+            continue
+        lo, hi = int(slab.min()), int(slab.max())
+        if lo < 0 or hi > np.iinfo(np.int32).max:
+            raise ImportInputError(
+                f"{where}: instance ids outside 0..2^31-1 (min {lo}, max {hi}); renumber the instance PNGs"
+            )
+        c = np.bincount(slab.ravel())
+        if len(c) > len(counts):
+            c[: len(counts)] += counts
+            counts = c
+        else:
+            counts[: len(c)] += c
+    return counts
 
 
 def _safe_median(path: Path) -> float | None:

@@ -16,7 +16,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rescene_core.capture.importers.common import ImportInputError, ImportOptions, require_dir, require_file
+import numpy as np
+
+from rescene_core.capture.importers.common import (
+    ImportInputError,
+    ImportOptions,
+    mask_id_counts,
+    require_dir,
+    require_file,
+)
 from rescene_core.capture.importers.nerfstudio import read_nerfstudio
 from rescene_core.capture.importers.rgbd import read_rgbd
 from rescene_core.capture.importers.scannet import read_scannet
@@ -72,7 +80,7 @@ def import_panoptic(
     frames.source = "panoptic"
     if frames.masks is None:
         raise ImportInputError(f"{mask_dir}: no instance masks were read; the panoptic import needs one mask per frame")
-    unknown = sorted({int(i) for i in set(frames.masks.ravel().tolist()) if i > 0} - set(table))
+    unknown = sorted({int(i) for i in np.flatnonzero(mask_id_counts(frames.masks, mask_dir)) if i > 0} - set(table))
     if unknown:
         frames.notes.append(
             f"{len(unknown)} instance id(s) in {mask_dir} have no entry in {labels_file.name} "

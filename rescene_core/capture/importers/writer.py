@@ -22,12 +22,20 @@ from rescene_core.capture.align import (
     transform_points,
 )
 from rescene_core.capture.depth_points import DepthPointsConfig, instance_points, scene_points
-from rescene_core.capture.format import CaptureArrays, points_to_csr, write_capture
+from rescene_core.capture.format import (
+    CaptureArrays,
+    FrameData,
+    FrameMap,
+    iter_slabs,
+    points_to_csr,
+    write_capture,
+)
 from rescene_core.capture.importers.common import (
     ImportInputError,
     ImportOptions,
     SourceFrames,
     is_structural,
+    mask_id_counts,
     read_source_gravity,
 )
 from rescene_core.capture.validate import check_capture
@@ -44,17 +52,24 @@ def report_path(out: str | Path) -> Path:
     return p.parent / f"{stem}_import.json"
 
 
-def _depth_stats(depth: np.ndarray | None) -> dict[str, Any]:
+def _depth_stats(depth: np.ndarray | FrameData | None) -> dict[str, Any]:
+    """Valid-depth coverage per frame (mean, least) and the median valid depth of every 4th pixel in both
+    directions (m), read a slab of frames at a time."""
     if depth is None:
         return {"present": False}
-    valid = depth > 0
-    per_frame = valid.reshape(len(depth), -1).mean(axis=1)
-    sample = depth[:, ::4, ::4]
+    per_frame: list[np.ndarray] = []
+    samples: list[np.ndarray] = []
+    for _, slab in iter_slabs(depth):
+        per_frame.append((slab > 0).reshape(len(slab), -1).mean(axis=1))
+        sample = slab[:, ::4, ::4]
+        samples.append(sample[sample > 0])
+    coverage = np.concatenate(per_frame)
+    valid = np.concatenate(samples)
     return {
         "present": True,
-        "coverage_mean": round(float(per_frame.mean()), 4),
-        "coverage_min": round(float(per_frame.min()), 4),
-        "median_m": round(float(np.median(sample[sample > 0])), 4) if (sample > 0).any() else 0.0,
+        "coverage_mean": round(float(coverage.mean()), 4),
+        "coverage_min": round(float(coverage.min()), 4),
+        "median_m": round(float(np.median(valid)), 4) if len(valid) else 0.0,
     }
 
 
@@ -129,6 +144,8 @@ def finish_import(
     if frames.render_masks is not None and opts.segment == "none":
         frames.render_masks(frames)
     if opts.segment in ("geometric", "masks"):
+        # the segmenters take whole arrays: the frames are read into memory for them (only here)
+        rgb_all, depth_all = np.asarray(frames.rgb), np.asarray(frames.depth)
         try:
             if opts.segment == "masks":
                 H, W = frames.depth.shape[1:]
@@ -137,16 +154,17 @@ def finish_import(
                 if missing:
                     frames.notes.append(f"{missing} of {T} frames have no mask in {mask_dir}: they cast no votes")
                 seg = segment_masks(
-                    frames.rgb, frames.depth, frames.K, world_from_cam, frame_masks, segment_config,
+                    rgb_all, depth_all, frames.K, world_from_cam, frame_masks, segment_config,
                     opts.clip_model, opts.clip_model_name, opts.vocabulary,
                 )  # fmt: skip
             else:
                 seg = segment_geometric(
-                    frames.rgb, frames.depth, frames.K, world_from_cam, segment_config, opts.clip_model,
+                    rgb_all, depth_all, frames.K, world_from_cam, segment_config, opts.clip_model,
                     opts.clip_model_name, opts.vocabulary,
                 )  # fmt: skip
         except SegmentError as err:
             raise ImportInputError(f"{frames.src}: {err}") from err
+        del rgb_all, depth_all
         if frames.masks is not None:
             frames.notes.append(
                 f"the source's masks were replaced by the {opts.segment} segmentation (--segment {opts.segment})"
@@ -167,10 +185,9 @@ def finish_import(
         )
     timings["segment"] = time.perf_counter() - t
 
-    if masks.min() < 0 or masks.max() > np.iinfo(np.int32).max:
-        raise ImportInputError(f"{frames.src}: instance ids outside 0..2^31-1; renumber the instance PNGs")
-    masks = masks.astype(np.int32, copy=False)  # the masks of a long scan are not copied
-    counts = np.bincount(masks.ravel())
+    counts = mask_id_counts(masks, frames.src)
+    if isinstance(masks, np.ndarray):
+        masks = masks.astype(np.int32, copy=False)  # the masks of a long scan are not copied
     present = [int(i) for i in np.flatnonzero(counts) if i > 0]
     structural = {i for i in present if labels.get(i, ("object", False))[1]}
 
@@ -215,7 +232,7 @@ def finish_import(
             "dropped_frames": [d.to_json() for d in frames.dropped],
             "stride": opts.stride,
         },
-        "image_size": [int(frames.rgb.shape[2]), int(frames.rgb.shape[1])],
+        "image_size": [int(frames.rgb.shape[2]), int(frames.rgb.shape[1])],  # (W, H)
         "depth": depth_stats,
         "instances": {
             "total": len(instances),
@@ -245,7 +262,7 @@ def finish_import(
         point_offsets=offsets,
         points=points,
         colors=colors,
-        depth=frames.depth.astype(np.float32, copy=False),
+        depth=frames.depth,
         source=source,
         extra_attrs={
             "alignment": alignment.to_json(),
@@ -254,6 +271,8 @@ def finish_import(
     )
     t = time.perf_counter()
     write_validated(out, arrays)
+    if frames.store is not None:
+        frames.store.close()  # the capture holds the frames now
     timings["write"] = time.perf_counter() - t
     elapsed = time.perf_counter() - started
     report["timings_s"] = {k: round(v, 3) for k, v in timings.items()} | {"total": round(elapsed, 3)}
@@ -277,24 +296,30 @@ def _source_up(frames: SourceFrames, opts: ImportOptions) -> tuple[np.ndarray | 
 
 
 def _drop_objects_without_points(
-    masks: np.ndarray,
+    masks: np.ndarray | FrameData,
     pixel_counts: np.ndarray,
     present: list[int],
     structural: set[int],
     clouds: dict[int, Any],
     labels: dict[int, tuple[str, bool]],
     cfg: DepthPointsConfig,
-) -> tuple[np.ndarray, list[dict[str, Any]]]:
+) -> tuple[np.ndarray | FrameData, list[dict[str, Any]]]:
     """Object ids of the masks that fused no cloud leave the capture: their pixels become 0 (no instance)
     and each is listed with its label, mask pixels and reason. A segment or panoptic mask can be too small
     or too thin to keep ``min_points`` points once it is eroded, cleared of depth edges and voxel-thinned;
     written without points it would reach every later stage as an object with nothing to register.
-    Structural ids keep their records (the room shell is fitted from the whole depth)."""
+    Structural ids keep their records (the room shell is fitted from the whole depth). The masks come back
+    as a ``FrameMap`` that clears those ids as it is read."""
     empty = [i for i in present if i not in structural and i not in clouds]
     if not empty:
         return masks, []
-    masks = masks.copy()
-    masks[np.isin(masks, empty)] = 0
+    gone = np.asarray(empty, np.int32)
+
+    def clear(slab: np.ndarray) -> np.ndarray:
+        return np.where(np.isin(slab, gone), np.int32(0), slab).astype(np.int32, copy=False)
+
+    # the cleared masks are made as the writer reads them, a slab at a time (no copy of every frame)
+    masks = FrameMap(masks, clear, np.int32)
     dropped = [
         {
             "id": i,
