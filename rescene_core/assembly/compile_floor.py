@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.assembly.evidence import centre_inside_polygon, polygon_excursion
+from rescene_core.assembly.evidence import centre_inside_polygon, level_pivot, polygon_excursion
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -62,8 +62,7 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
     cfg, room = state.config, state.room
     obj = state.objects[child]
     pose = state.pose(child)
-    verts = state.vertices(child)
-    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    pivot = level_pivot(state, child)
     info: dict[str, Any] = {}
     level, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
     correction = level

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from rescene_core.assembly.evidence import points_in_box
+from rescene_core.assembly.evidence import level_pivot, points_in_box
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -343,8 +343,7 @@ def compile_support(
         return None, {"reason": f"parent {parent} has no upward-facing support face"}
     obj = state.objects[child]
     pose = state.pose(child)
-    verts = state.vertices(child)
-    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    pivot = level_pivot(state, child)
     correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
     moved = apply(correction @ pose, obj.vertices)
     bottom = float(room.floor_distance(moved).min())

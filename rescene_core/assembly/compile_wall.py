@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.assembly.evidence import centre_inside_wall, face_yaw, wall_gap, yaw_to_direction
+from rescene_core.assembly.evidence import centre_inside_wall, face_yaw, level_pivot, wall_gap, yaw_to_direction
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import (
@@ -167,8 +167,7 @@ def compile_wall(
         return None, {"reason": contradiction}
     pose = state.pose(child)
     side: dict[str, Any] = {}
-    verts = state.vertices(child)
-    pivot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    pivot = level_pivot(state, child)
     if obj.exact_shape:
         correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
     else:

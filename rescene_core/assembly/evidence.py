@@ -269,3 +269,26 @@ def _held(obj, world_from_asset: NDArray, points: NDArray) -> float:
     margin = POINTS_FIT_MARGIN / scale_of(world_from_asset)
     lo, hi = obj.vertices.min(axis=0) - margin, obj.vertices.max(axis=0) + margin
     return float(np.mean(np.all((local >= lo) & (local <= hi), axis=1)))
+
+
+LEVEL_PIVOT_MIN_POINTS = 12
+"""Fewest observed points in its registered mesh box a generated asset needs for them to fix the point it
+is levelled about (``level_pivot``); with fewer, the centre of its bounding box."""
+
+
+def level_pivot(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
+    """World point [3] (m) about which object i is levelled at its current pose.
+
+    For a generated asset with observed points: their per-axis median (the points within SEEN_BOX_MARGIN of
+    its registered mesh box, ``points_in_box``, carried to its current pose). The part the capture saw stays
+    where it was seen and the unseen completion swings about it; about its bounding-box centre, levelling a
+    mesh registered 7-11 deg tilted slides the seen part sideways and, as the box of the tilted mesh is not
+    the box of the levelled one, the box centre with it. Otherwise (an exact shape, too few points) the
+    centre of its current bounding box."""
+    obj = state.objects[i]
+    if not obj.exact_shape and obj.points is not None and len(obj.points) >= LEVEL_PIVOT_MIN_POINTS:
+        seen = points_in_box(obj)
+        if len(seen) >= LEVEL_PIVOT_MIN_POINTS:
+            now = apply(state.pose(i) @ inverse(obj.world_from_asset), np.median(seen, axis=0)[None])[0]
+            return np.asarray(now, dtype=np.float64)
+    return state.centre(i)
