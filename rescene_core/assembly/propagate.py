@@ -28,9 +28,9 @@ import shapely
 from numpy.typing import NDArray
 
 from rescene_core.assembly.compile_wall import resolve_walls
-from rescene_core.assembly.completions import BASE_MIN_GAP, BASE_MIN_POINTS, bounded_floor_snap
+from rescene_core.assembly.completions import BASE_MIN_GAP, BASE_MIN_POINTS, FIT_TIE, bounded_floor_snap
 from rescene_core.assembly.dispatch import compile_edge
-from rescene_core.assembly.evidence import evidence_refuses, wall_gap
+from rescene_core.assembly.evidence import evidence_refuses, points_fit, wall_gap
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
@@ -89,6 +89,8 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
             continue
         edge = trusted_floor_edge(state, child, edge)
         parent_delta = np.eye(4) if isinstance(edge.parent, Root) else state.delta[edge.parent].copy()
+        if edge.relation is Relation.RESTS_ON and not isinstance(edge.parent, Root):
+            parent_delta = support_step(state, child, parent_delta)
         state.delta[child] = parent_delta.copy()
         state._version[child] += 1
         stage, correction, info = compile_edge(state, child, edge, plans)
@@ -149,6 +151,33 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         )
         if "wall_id" in info:
             state.wall_of[child] = int(info["wall_id"])
+
+
+def support_step(state: LayoutState, child: InstanceId, parent_delta: NDArray) -> NDArray[np.float64]:
+    """What a generated ``child`` with observed points inherits of its support's Delta T ``parent_delta``
+    [4, 4] before its own rule runs: only the support's vertical step where the child stands (at its
+    registered footprint centre and bottom), and only when the child's points agree with that step (its mesh
+    box explains them within ``completions.FIT_TIE`` as well as at the registered pose); else nothing, the
+    registered pose. An exact shape, or a child without points, inherits the whole of ``parent_delta``.
+
+    A child was registered on its own points: its support's levelling, yaw or footprint step (a counter or a
+    desk moved a few centimetres into the floor polygon) is not evidence of where the child stands. The
+    child's rule then puts it on the face at its registered centre, but scaled by the edge's confidence
+    (Eq. 5), so an edge at 0.87 kept 13 % of its support's horizontal step and of its turn."""
+    obj = state.objects[child]
+    if obj.exact_shape or obj.points is None or len(obj.points) == 0:
+        return parent_delta
+    room = state.room
+    verts = obj.world_vertices()
+    foot = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    foot = foot - float(room.floor_distance(foot[None])[0] - room.floor_distance(verts).min()) * room.up
+    step = float((apply(parent_delta, foot[None])[0] - foot) @ room.up)
+    carried = translation(step * room.up)
+    before = points_fit(obj, obj.world_from_asset)
+    after = points_fit(obj, carried @ obj.world_from_asset)
+    if before is None or after is None or after >= before - FIT_TIE:
+        return carried
+    return np.eye(4)
 
 
 BENEATH_MIN_SHARE = 0.2

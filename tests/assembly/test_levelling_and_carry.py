@@ -30,3 +30,42 @@ def test_a_tilted_generated_mesh_is_levelled_about_its_observed_points():
     assert np.linalg.norm(carried[:2] - seen[:2]) < 0.005
     level_axis = final[:3, 2] / np.linalg.norm(final[:3, 2])
     assert level_axis[2] > np.cos(np.radians(0.5))  # levelled
+
+
+def _counter_and_cup(confidence: float):
+    # an exact counter registered 8 cm through wall 0 (y = 0): the floor rule steps it 8 cm back into the room
+    counter = box_object(1, "counter", (1.0, 0.6, 0.9), placed(2.0, 0.22), exact_shape=True)
+    rng = np.random.default_rng(1)
+    side = np.c_[rng.uniform(-0.04, 0.04, 300), rng.uniform(-0.04, 0.04, 300), rng.uniform(0.0, 0.1, 300)]
+    cup = box_object(2, "cup", (0.08, 0.08, 0.1), placed(2.0, 0.4, 0.9), exact_shape=False)
+    cup = replace(cup, points=apply(cup.world_from_asset, side))
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), confidence),
+        )
+    )
+    return {InstanceId(1): counter, InstanceId(2): cup}, graph
+
+
+def test_a_generated_child_keeps_its_place_when_its_support_is_stepped():
+    objects, graph = _counter_and_cup(0.8)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(stop_after="relations"))
+    counter = objects[InstanceId(1)].world_vertices(layout.world_from_asset[InstanceId(1)])
+    assert counter[:, 1].min() > -1e-6  # the counter was stepped out of the wall
+    cup = objects[InstanceId(2)]
+    before, after = cup.world_vertices(), cup.world_vertices(layout.world_from_asset[InstanceId(2)])
+    centre = lambda v: 0.5 * (v.min(axis=0) + v.max(axis=0))  # noqa: E731
+    # the cup was seen where it stands: it keeps its place (carried with the counter, an edge at 0.8 kept
+    # 20 % of the counter's 8 cm step) and stays on the counter's top
+    assert np.linalg.norm(centre(after)[:2] - centre(before)[:2]) < 0.001
+    assert abs(after[:, 2].min() - counter[:, 2].max()) < 1e-6
+
+
+def test_an_exact_child_is_carried_with_its_support():
+    objects, graph = _counter_and_cup(0.8)
+    objects[InstanceId(2)] = replace(objects[InstanceId(2)], exact_shape=True, points=None)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(stop_after="relations"))
+    cup = objects[InstanceId(2)]
+    step = layout.world_from_asset[InstanceId(2)][1, 3] - cup.world_from_asset[1, 3]
+    assert step > 0.01  # part of the counter's step, as Eq. 5 carries it
