@@ -2,10 +2,10 @@
 against the measured depth, so occluded points do not vote) and reads the frame's mask id there; a
 superpoint's vote in a frame is the id most of its visible points read.
 
-Used twice: by ``--segment masks`` to merge superpoints into instances by view consensus (two touching
-superpoints join when, in most frames that see both, one mask covers both: the idea of MaskClustering,
-CVPR 2024, and SAI3D, restricted to touching superpoints), and by the benchmark to give superpoints the
-synthetic truth's ids. Mask ids need not agree across frames: only equality within a frame is used.
+Used by ``--segment masks`` to merge superpoints into instances by view consensus (two touching
+regions join when, in most frames that see both, one mask covers both: the idea of MaskClustering,
+CVPR 2024, and SAI3D, restricted to touching superpoints; ``rescene_core.segment.masks``), and with
+``majority_ids`` to give superpoints the synthetic truth's ids. Mask ids need not agree across frames: only equality within a frame is used.
 """
 
 from __future__ import annotations
@@ -35,7 +35,19 @@ class FrameVotes:
     seen: NDArray[np.int64]
 
 
-def frame_votes(
+@dataclass
+class FrameCounts:
+    """Per (superpoint, frame, mask id) read by its visible points: how many points read it.
+
+    sp, frame, mask_id, count: [m] each, sorted by (superpoint, frame). Frames without a mask read nothing."""
+
+    sp: NDArray[np.int64]
+    frame: NDArray[np.int64]
+    mask_id: NDArray[np.int64]
+    count: NDArray[np.int64]
+
+
+def frame_counts(
     points: NDArray[np.float64],
     label: NDArray[np.int64],
     masks: Sequence[NDArray | None],
@@ -44,14 +56,13 @@ def frame_votes(
     depth: NDArray[np.float32] | None,
     abs_tolerance: float = 0.05,
     rel_tolerance: float = 0.05,
-    min_seen: int = 3,
-) -> FrameVotes:
-    """Votes of the superpoints ``label`` [n] of ``points`` [n, 3] (world, m) in each frame's mask.
+) -> FrameCounts:
+    """The mask ids the superpoints ``label`` [n] of ``points`` [n, 3] (world, m) read in each frame.
 
     masks: T id images [H, W] (0 = none) or None for a frame without one. K [T, 3, 3], world_from_cam
-    [T, 4, 4] (OpenCV axes), depth [T, H, W] metres (0 invalid) or None (no occlusion test). A pixel's
-    centre is at (u + 0.5, v + 0.5), as in the project's renderer. Superpoints with fewer than
-    ``min_seen`` visible points in a frame cast no vote there."""
+    [T, 4, 4] (OpenCV axes), depth [T, H, W] metres (0 invalid) or None (no occlusion test: a point
+    farther than the measured depth by more than max(abs_tolerance, rel_tolerance * depth) is hidden). A
+    pixel's centre is at (u + 0.5, v + 0.5), as in the project's renderer."""
     homog = np.c_[points, np.ones(len(points))]
     keys, counts_all = [], []
     for t, mask in enumerate(masks):
@@ -72,51 +83,56 @@ def frame_votes(
             idx = idx[agree]
         ids = np.asarray(mask)[v[idx], u[idx]].astype(np.int64)
         # one key per (superpoint, id) in this frame
-        key = label[idx] * (int(ids.max(initial=0)) + 1) + ids
-        uk, cnt = np.unique(key, return_counts=True)
         span = int(ids.max(initial=0)) + 1
+        uk, cnt = np.unique(label[idx] * span + ids, return_counts=True)
         keys.append(np.stack([uk // span, np.full(len(uk), t), uk % span], 1))
         counts_all.append(cnt)
     if not keys:
         empty = np.zeros(0, np.int64)
-        return FrameVotes(empty, empty, empty, np.zeros(0), empty)
+        return FrameCounts(empty, empty, empty, empty)
     triples = np.concatenate(keys)
     counts = np.concatenate(counts_all)
-    pair = triples[:, 0] * len(masks) + triples[:, 1]
-    order = np.lexsort((-counts, pair))
-    pair, triples, counts = pair[order], triples[order], counts[order]
+    order = np.lexsort((-counts, triples[:, 1], triples[:, 0]))
+    triples, counts = triples[order], counts[order]
+    return FrameCounts(triples[:, 0], triples[:, 1], triples[:, 2], counts.astype(np.int64))
+
+
+def votes_from_counts(counts: FrameCounts, n_frames: int, min_seen: int = 3) -> FrameVotes:
+    """Each (superpoint, frame)'s majority id and its share (see ``FrameVotes``), from the ids its points
+    read; superpoints with fewer than ``min_seen`` visible points in a frame cast no vote there."""
+    if len(counts.sp) == 0:
+        empty = np.zeros(0, np.int64)
+        return FrameVotes(empty, empty, empty, np.zeros(0), empty)
+    pair = counts.sp * n_frames + counts.frame
     first = np.r_[True, pair[1:] != pair[:-1]]
-    seen = np.add.reduceat(counts, np.flatnonzero(first))
-    best = triples[first]
+    seen = np.add.reduceat(counts.count, np.flatnonzero(first))
     keep = seen >= min_seen
+    top = counts.count[first]
     return FrameVotes(
-        best[keep, 0], best[keep, 1], best[keep, 2], (counts[first] / np.maximum(seen, 1))[keep], seen[keep]
+        counts.sp[first][keep],
+        counts.frame[first][keep],
+        counts.mask_id[first][keep],
+        (top / np.maximum(seen, 1))[keep],
+        seen[keep],
     )
 
 
-def pair_agreement(
-    votes: FrameVotes, pairs: NDArray[np.int64], n_frames: int, min_share: float = 0.5
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """For each superpoint pair [p, 2]: frames where both cast a confident vote (majority share >=
-    ``min_share``, id not 0), and how many of those gave both the same id. Returns (both [p], same [p])."""
-    conf = (votes.share >= min_share) & (votes.mask_id > 0)
-    table: dict[int, int] = dict(
-        zip((votes.sp[conf] * n_frames + votes.frame[conf]).tolist(), votes.mask_id[conf].tolist(), strict=True)
-    )
-    both = np.zeros(len(pairs), np.int64)
-    same = np.zeros(len(pairs), np.int64)
-    by_sp: dict[int, list[int]] = {}
-    for s, t in zip(votes.sp[conf].tolist(), votes.frame[conf].tolist(), strict=True):
-        by_sp.setdefault(s, []).append(t)
-    for p, (a, b) in enumerate(pairs.tolist()):
-        fa = by_sp.get(a)
-        fb = by_sp.get(b)
-        if not fa or not fb:
-            continue
-        common = set(fa).intersection(fb)
-        both[p] = len(common)
-        same[p] = sum(table[a * n_frames + t] == table[b * n_frames + t] for t in common)
-    return both, same
+def frame_votes(
+    points: NDArray[np.float64],
+    label: NDArray[np.int64],
+    masks: Sequence[NDArray | None],
+    K: NDArray,
+    world_from_cam: NDArray,
+    depth: NDArray[np.float32] | None,
+    abs_tolerance: float = 0.05,
+    rel_tolerance: float = 0.05,
+    min_seen: int = 3,
+) -> FrameVotes:
+    """Votes of the superpoints ``label`` [n] of ``points`` [n, 3] (world, m) in each frame's mask (see
+    ``frame_counts`` for the projection): the id most of a superpoint's visible points read. Superpoints
+    with fewer than ``min_seen`` visible points in a frame cast no vote there."""
+    counts = frame_counts(points, label, masks, K, world_from_cam, depth, abs_tolerance, rel_tolerance)
+    return votes_from_counts(counts, len(masks), min_seen)
 
 
 def majority_ids(votes: FrameVotes, n_sp: int) -> tuple[NDArray[np.int64], NDArray[np.float64]]:

@@ -2,8 +2,10 @@
 
 The scan is fused and over-segmented as in the geometric front end (``rescene_core.segment.geometric``:
 TSDF, structure planes, superpoints). Each superpoint reads its id in every frame's mask
-(``rescene_core.segment.lift``); two touching superpoints join when, among the frames in which both
-cast a confident vote, most give them the same id. Ids need not agree across frames, so SAM 2 automatic
+(``rescene_core.segment.lift``); touching regions, starting from the superpoints, are merged
+agglomeratively, the best agreeing pair first, while among the frames in which both cast a confident vote
+most give them the same id. A region votes with all its points, so a superpoint straddling two objects
+cannot bridge them. Ids need not agree across frames, so SAM 2 automatic
 masks or CropFormer's can be used as they are written. A superpoint most frames leave unmasked (id 0), or
 that no frame sees, belongs to no instance. Regions are then filtered as in the geometric front end; a
 consensus region lying on a wall and hanging clear of the floor and ceiling is a flush object (a picture,
@@ -12,6 +14,7 @@ a mirror, a TV), one that reaches the floor (a door) or spans the wall stays wal
 
 from __future__ import annotations
 
+import heapq
 import time
 from collections.abc import Sequence
 
@@ -24,13 +27,12 @@ from rescene_core.segment.geometric import (
     SegmentConfig,
     SegmentResult,
     _absorb_small,
-    _components,
     _filter_regions,
     _finish,
     fuse_scan,
     wall_superpoints,
 )
-from rescene_core.segment.lift import FrameVotes, frame_votes, pair_agreement
+from rescene_core.segment.lift import FrameCounts, frame_counts, votes_from_counts
 
 
 def vote_sample(sp: ScanPoints, per_superpoint: int, seed: int = 0) -> NDArray[np.int64]:
@@ -44,24 +46,115 @@ def vote_sample(sp: ScanPoints, per_superpoint: int, seed: int = 0) -> NDArray[n
     return np.sort(order[rank < per_superpoint])
 
 
+class _RegionVotes:
+    """The mask ids a growing region's points read, frame by frame: {frame: {id: points}}, and its
+    confident vote per frame (the majority id, not 0, read by ``min_share`` of at least ``min_seen``
+    visible points)."""
+
+    __slots__ = ("reads", "vote")
+
+    def __init__(self, reads: dict[int, dict[int, int]], min_seen: int, min_share: float) -> None:
+        self.reads = reads
+        self.vote: dict[int, int] = {}
+        for t, ids in reads.items():
+            total = sum(ids.values())
+            best = max(ids, key=lambda i: (ids[i], -i))
+            if best > 0 and total >= min_seen and ids[best] >= min_share * total:
+                self.vote[t] = best
+
+    def merged(self, other: _RegionVotes, min_seen: int, min_share: float) -> _RegionVotes:
+        reads = {t: dict(ids) for t, ids in self.reads.items()}
+        for t, ids in other.reads.items():
+            mine = reads.setdefault(t, {})
+            for i, c in ids.items():
+                mine[i] = mine.get(i, 0) + c
+        return _RegionVotes(reads, min_seen, min_share)
+
+
+def _agreement(a: _RegionVotes, b: _RegionVotes) -> tuple[int, int]:
+    """Frames in which both regions cast a confident vote, and how many of those gave both the same id."""
+    if len(a.vote) > len(b.vote):
+        a, b = b, a
+    both = same = 0
+    for t, i in a.vote.items():
+        j = b.vote.get(t)
+        if j is not None:
+            both += 1
+            same += i == j
+    return both, same
+
+
 def consensus_regions(
-    sp: ScanPoints, votes: FrameVotes, n_frames: int, cfg: SegmentConfig
+    sp: ScanPoints, counts: FrameCounts, n_frames: int, cfg: SegmentConfig
 ) -> tuple[NDArray[np.int64], dict[str, int]]:
-    """Region [s] of each superpoint (0: none) by view consensus, and counts for the report."""
+    """Region [s] of each superpoint (0: none) by view consensus, and counts for the report.
+
+    Touching masked superpoints are merged agglomeratively, the best agreeing pair first: two regions join
+    when, among the frames in which both cast a confident vote (``consensus_min_frames`` or more), at least
+    ``consensus_fraction`` give them the same id. A region votes with all its points, so once a book stack's
+    superpoints have joined, one superpoint straddling the stack and its shelf (the fused surface is
+    coarser than a book) reads the shelf's id in some frames and the stack's in others without bridging the
+    two: the stack as a whole reads its own id, the shelf its own (single linkage over superpoint pairs,
+    MaskClustering's graph before its iterative merging, joined them through it)."""
     g = sp.graph
     n = g.size
-    both, same = pair_agreement(votes, g.pairs, n_frames, cfg.vote_min_share)
-    join = (both >= cfg.consensus_min_frames) & (same >= cfg.consensus_fraction * np.maximum(both, 1))
-    join &= g.contacts >= cfg.min_contacts
+    votes = votes_from_counts(counts, n_frames, cfg.vote_min_points)
     voted = np.bincount(votes.sp, minlength=n)
     unmasked = np.bincount(votes.sp, (votes.mask_id == 0).astype(float), n)
     masked = (voted > 0) & (unmasked < 0.5 * np.maximum(voted, 1))
-    comp = _components(n, g.pairs, join & masked[g.pairs[:, 0]] & masked[g.pairs[:, 1]])
+    reads: dict[int, dict[int, dict[int, int]]] = {}
+    for s_, t, i, c in zip(counts.sp.tolist(), counts.frame.tolist(), counts.mask_id.tolist(),
+                           counts.count.tolist(), strict=True):  # fmt: skip
+        if masked[s_]:
+            reads.setdefault(s_, {}).setdefault(t, {})[i] = c
+    seen, share = cfg.vote_min_points, cfg.vote_min_share
+    state = {s_: _RegionVotes(r, seen, share) for s_, r in reads.items()}
+    ok = (g.contacts >= cfg.min_contacts) & masked[g.pairs[:, 0]] & masked[g.pairs[:, 1]]
+    neighbours: dict[int, set[int]] = {}
+    for a, b in g.pairs[ok].tolist():
+        neighbours.setdefault(a, set()).add(b)
+        neighbours.setdefault(b, set()).add(a)
+    version = dict.fromkeys(state, 0)
+    heap: list[tuple[float, int, int, int, int, int]] = []
+
+    def push(a: int, b: int) -> None:
+        both, same = _agreement(state[a], state[b])
+        if both >= cfg.consensus_min_frames and same >= cfg.consensus_fraction * both:
+            heapq.heappush(heap, (-same / both, -both, a, b, version[a], version[b]))
+
+    for a, nb in neighbours.items():
+        for b in nb:
+            if a < b:
+                push(a, b)
+    parent = np.arange(n)
+    joined = 0
+    while heap:
+        _, _, a, b, va, vb = heapq.heappop(heap)
+        if version.get(a) != va or version.get(b) != vb:
+            continue  # one of them has grown since
+        state[a] = state[a].merged(state.pop(b), seen, share)
+        del version[b]
+        version[a] += 1
+        parent[b] = a
+        joined += 1
+        nb = (neighbours.pop(b, set()) | neighbours.get(a, set())) - {a, b}
+        neighbours[a] = nb
+        for c in nb:
+            neighbours[c].discard(b)
+            neighbours[c].add(a)
+            push(a, c)
+    root = parent.copy()
+    for _ in range(64):
+        nxt = root[root]
+        if np.array_equal(nxt, root):
+            break
+        root = nxt
+    _, comp = np.unique(root, return_inverse=True)
     region = np.where(masked, comp + 1, 0)
     stats = {
         "superpoints": int(n),
         "contacts": int(len(g.pairs)),
-        "joined_by_consensus": int(join.sum()),
+        "joined_by_consensus": int(joined),
         "unseen_superpoints": int((voted == 0).sum()),
         "unmasked_superpoints": int(((voted > 0) & ~masked).sum()),
     }
@@ -97,13 +190,13 @@ def segment_masks(
     verts, faces, struct, planes, sp, seconds = fuse_scan(rgb, depth, K, world_from_cam, cfg, cfg.masks_fh_k)
     t = time.perf_counter()
     pick = vote_sample(sp, cfg.vote_points, cfg.seed)
-    votes = frame_votes(
+    counts = frame_counts(
         sp.points[pick], sp.graph.label[pick], frame_masks, K, world_from_cam, depth,
-        cfg.depth_abs_tolerance, cfg.depth_rel_tolerance, cfg.vote_min_points,
+        cfg.depth_abs_tolerance, cfg.depth_rel_tolerance,
     )  # fmt: skip
     seconds["votes"] = time.perf_counter() - t
     t = time.perf_counter()
-    region, stats = consensus_regions(sp, votes, T, cfg)
+    region, stats = consensus_regions(sp, counts, T, cfg)
     which, _ = wall_superpoints(sp, planes, cfg)
     # consensus regions are no fragments of geometry: they keep the smaller least size
     small = cfg.model_copy(update={"min_segment_points": cfg.masks_min_segment_points})

@@ -108,3 +108,30 @@ def test_import_rgbd_with_masks_via_cli(room, damaged, tmp_path, capsys):
     assert "needs --masks DIR" in capsys.readouterr().err
     assert main(["import", "rgbd", str(src), str(tmp_path / "c.zarr"), "--masks", str(mask_dir)]) == 2
     assert "add --segment masks" in capsys.readouterr().err
+
+
+def test_consensus_keeps_a_stack_apart_from_its_shelf_across_straddling_superpoints():
+    from types import SimpleNamespace
+
+    from rescene_core.segment.geometric import SegmentConfig
+    from rescene_core.segment.lift import FrameCounts
+    from rescene_core.segment.masks import consensus_regions
+
+    # a chain stack (0) - straddling (1) - straddling (2) - shelf (3), seen in 10 frames: the stack reads
+    # its own id, the shelf another; superpoint 1 reads the stack's id in frames 0-7, superpoint 2 in
+    # frames 0-3 and the shelf's elsewhere. Every touching pair agrees in at least 60 % of the frames, so
+    # joining pairs of superpoints would make one region of all four; the stack as a whole never reads the
+    # shelf's id.
+    rows = []
+    for t in range(10):
+        stack_id, shelf_id = 10 + t, 50 + t  # ids differ from frame to frame
+        rows += [(0, t, stack_id, 40), (3, t, shelf_id, 40)]
+        rows.append((1, t, stack_id if t < 8 else shelf_id, 5))
+        rows.append((2, t, stack_id if t < 4 else shelf_id, 5))
+    sp_, frame, ids, count = (np.array(c, np.int64) for c in zip(*sorted(rows), strict=True))
+    graph = SimpleNamespace(size=4, pairs=np.array([[0, 1], [1, 2], [2, 3]]), contacts=np.array([9, 9, 9]))
+    region, stats = consensus_regions(
+        SimpleNamespace(graph=graph), FrameCounts(sp_, frame, ids, count), 10, SegmentConfig()
+    )
+    assert region[0] == region[1] != region[3] == region[2]
+    assert region.min() > 0 and stats["joined_by_consensus"] == 2
