@@ -74,3 +74,42 @@ def test_instance_points_spilled_every_frame_equal_one_spill(tmp_path, monkeypat
         assert np.array_equal(whole[iid][0], spilled[iid][0]) and np.array_equal(whole[iid][1], spilled[iid][1])
     store.close()
     assert list(tmp_path.iterdir()) == []  # the spill files and the staging store are gone
+
+
+def test_streamed_thinning_has_open3d_voxels(tmp_path, monkeypatch):
+    """A cloud above EXACT_POINTS is folded piece by piece on Open3D's grid: the same voxels, mean points and
+    mean colours as ``voxel_down_sample`` of every point at once (only their order differs)."""
+    import open3d as o3d
+
+    rng = np.random.default_rng(0)
+    pts = (rng.random((20000, 3)) * [2.0, 1.0, 0.5] + [-3.2, 0.7, 1.1]).astype(np.float32)
+    cols = rng.integers(0, 256, (20000, 3), dtype=np.uint8)
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts.astype(np.float64)))
+    pcd.colors = o3d.utility.Vector3dVector(cols.astype(np.float64) / 255.0)
+    ref = pcd.voxel_down_sample(0.05)
+    monkeypatch.setattr(depth_points, "EXACT_POINTS", 1000)
+    monkeypatch.setattr(depth_points, "FOLD_POINTS", 3000)
+    spill = depth_points._Spill(tmp_path, colors=True)
+    for a in range(0, len(pts), 700):
+        spill.add(5, pts[a : a + 700], cols[a : a + 700])
+        spill.flush()
+    assert spill.count[5] == len(pts) and np.array_equal(spill.low[5], pts.min(axis=0))
+    got = spill.thin(5, 0.05)
+    assert list(tmp_path.iterdir()) == []
+
+    def rows(cloud):
+        both = np.hstack([np.asarray(cloud.points), np.asarray(cloud.colors)])
+        return both[np.lexsort(both.T[::-1])]
+
+    a, b = rows(ref), rows(got)
+    assert a.shape == b.shape and len(a) > 1000
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+
+
+def test_scene_points_streamed_keep_the_floor(tmp_path, monkeypatch):
+    arrays = toy_capture_arrays(frames=4, width=64, height=48)
+    whole = depth_points.scene_points(arrays.depth, arrays.K, arrays.world_from_cam, spill_dir=tmp_path)
+    monkeypatch.setattr(depth_points, "EXACT_POINTS", 10)
+    streamed = depth_points.scene_points(arrays.depth, arrays.K, arrays.world_from_cam, spill_dir=tmp_path)
+    key = np.lexsort(whole.T[::-1])
+    np.testing.assert_allclose(whole[key], streamed[np.lexsort(streamed.T[::-1])], rtol=0, atol=1e-9)
