@@ -154,7 +154,16 @@ class FrameStore:
         t, h, w = int(frames), int(height), int(width)
 
         def make(name: str, shape: tuple[int, ...], dtype: Any) -> StoredFrames:
-            arr = group.create_array(name, shape=shape, dtype=dtype, chunks=(1, *shape[1:]), compressors=[_codec()])
+            # chunk files side by side ("c.5.0.0.0"), not a folder per frame: removing 850 nested folders
+            # took 2.6 s on this machine's disk, the same number of files in one folder 20 ms
+            arr = group.create_array(
+                name,
+                shape=shape,
+                dtype=dtype,
+                chunks=(1, *shape[1:]),
+                compressors=[_codec()],
+                chunk_key_encoding={"name": "default", "separator": "."},
+            )
             return StoredFrames(arr)
 
         self.rgb = make("rgb", (t, h, w, 3), np.uint8)
@@ -257,24 +266,31 @@ def write_frames(group: zarr.Group, name: str, data: NDArray[Any] | FrameData) -
 
 
 def _take_chunks(src: zarr.Array, dst: zarr.Array) -> bool:
-    """Hard-link (else copy) the chunk files of ``src`` into the empty array ``dst`` when both live in local
-    directories and their metadata agree (the same encoded bytes mean the same frames); False otherwise."""
+    """Hard-link (else copy) the chunk files of ``src`` (a ``FrameStore`` array: chunk keys "c.i.j.k") into
+    the empty array ``dst`` under its own chunk keys, when both live in local directories and their
+    metadata agree but for the key encoding (the same encoded bytes mean the same frames); False otherwise."""
     if not (isinstance(src.store, zarr.storage.LocalStore) and isinstance(dst.store, zarr.storage.LocalStore)):
         return False
-    if src.metadata.to_dict() != dst.metadata.to_dict():
+    a, b = src.metadata.to_dict(), dst.metadata.to_dict()
+    a.pop("chunk_key_encoding", None)
+    b.pop("chunk_key_encoding", None)
+    if a != b or src.metadata.chunk_key_encoding.to_dict() != {  # type: ignore[union-attr]
+        "name": "default",
+        "configuration": {"separator": "."},
+    }:
         return False
     src_dir = Path(src.store.root) / src.path
     dst_dir = Path(dst.store.root) / dst.path
-    for dirpath, _, files in os.walk(src_dir):
-        rel = Path(dirpath).relative_to(src_dir)
-        for f in files:
-            if rel == Path(".") and f == "zarr.json":
-                continue
-            (dst_dir / rel).mkdir(parents=True, exist_ok=True)
-            try:
-                os.link(Path(dirpath) / f, dst_dir / rel / f)
-            except OSError:
-                shutil.copy2(Path(dirpath) / f, dst_dir / rel / f)
+    for entry in os.scandir(src_dir):
+        parts = entry.name.split(".")
+        if parts[0] != "c" or not all(p.isdigit() for p in parts[1:]) or len(parts) != len(dst.shape) + 1:
+            continue
+        target = dst_dir / dst.metadata.encode_chunk_key(tuple(int(p) for p in parts[1:]))  # type: ignore[union-attr]
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            os.link(entry.path, target)
+        except OSError:
+            shutil.copy2(entry.path, target)
     return True
 
 

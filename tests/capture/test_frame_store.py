@@ -38,8 +38,8 @@ def test_staged_frames_are_written_as_numpy_frames_and_linked(tmp_path):
         assert np.array_equal(a[f"frames/{name}"][...], b[f"frames/{name}"][...]), name
     # the encoded chunks were taken over, not decoded and encoded again: the files are the store's
     chunk = from_store / "frames" / "rgb" / "c" / "4" / "0" / "0" / "0"
-    assert os.stat(chunk).st_ino == os.stat(store.path / "rgb" / "c" / "4" / "0" / "0" / "0").st_ino
-    assert not (store.path / "rgb" / "c" / "5").exists()  # the truncated tail is gone
+    assert os.stat(chunk).st_ino == os.stat(store.path / "rgb" / "c.4.0.0.0").st_ino
+    assert not (store.path / "rgb" / "c.5.0.0.0").exists()  # the truncated tail is gone
     store.close()
     assert not store.path.exists()
     assert np.array_equal(b["frames/rgb"][...], arrays.rgb)  # the capture keeps its files
