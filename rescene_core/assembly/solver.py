@@ -46,7 +46,14 @@ from rescene_core.assembly.refine import (
 from rescene_core.assembly.restore import restore_toward_evidence
 from rescene_core.assembly.room import room_from_shell
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.trim import cut_overlaps, cut_registered_overlaps, room_cuts, top_cuts, trimmed
+from rescene_core.assembly.trim import (
+    cut_overlaps,
+    cut_registered_overlaps,
+    room_cuts,
+    seat_cuts,
+    top_cuts,
+    trimmed,
+)
 from rescene_core.assembly.wall_evidence import turn_to_wall_evidence
 from rescene_core.config import AttachmentConfig
 from rescene_core.geometry.sim3 import apply
@@ -220,6 +227,9 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
         for i, cut in top_cuts(valid, forest, room).items():
             cuts.setdefault(i, []).append(cut)
             valid[i] = trimmed(valid[i], [cut])
+        for i, seat in seat_cuts(valid, forest, room).items():
+            cuts.setdefault(i, []).extend(seat)
+            valid[i] = trimmed(valid[i], seat)
     base = LayoutState(valid, forest, room, config)
     for i, info in turned:
         base.log(i, "wall evidence", "turn onto the side its points show", **info)

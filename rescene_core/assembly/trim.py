@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import shapely
 import trimesh
 from numpy.typing import NDArray
 
@@ -174,6 +175,81 @@ def top_cuts(objects: dict[InstanceId, AssemblyObject], forest: Forest, room: Ro
             f"the generated mesh reaches {top - level:.2f} m above where its children stand and its points end: "
             "cut there",
         )
+    return out
+
+
+SEAT_REACH = 0.03
+"""A generated child's points reach down to what it stands on when their reach (POINTS_REACH_PERCENTILE of
+their heights) lies within this distance (m) of its parent's surface seen around it (SEAT_AROUND)."""
+SEAT_AROUND = 0.05
+"""How far (m) around a child's footprint its parent's points show the surface it stands on."""
+
+
+def seat_cuts(
+    objects: dict[InstanceId, AssemblyObject], forest: Forest, room: Room
+) -> dict[InstanceId, list[Completion]]:
+    """Cuts of generated children resting on objects whose mesh reaches below where their points show them
+    standing, at the registered poses.
+
+    A single-view completion of a small object is often taller than it (egocentric diagnostic seeds 201 and
+    203: cups, jars and cutting boards 1-8 cm taller), registered on its points with the surplus below the
+    bottom the capture saw (1-3 cm) and above its top. The support rule then put the mesh's lowest point on
+    its parent's face, lifting the object by that surplus. When the child's points (those within
+    ``evidence.SEEN_BOX_MARGIN`` of its mesh box) reach down to within SEAT_REACH of its parent's surface (at
+    least MIN_POINTS of the parent's points within SEAT_AROUND of its footprint at that height: the bottom
+    was seen where the parent was seen, not only a rim or a top; the parent's mesh may still be tilted or
+    off) and its mesh reaches more than TRIM_MARGIN below them, the mesh is cut at the points' reach, keeping the side above; not when the cut would keep less than
+    MIN_KEPT_SHARE of its height. Returns child -> ``cut`` completion (asset frame)."""
+    from rescene_core.assembly.evidence import points_in_box
+    from rescene_core.assembly.objects import footprint
+
+    out = {}
+    carrying = {InstanceId(edge.parent) for edge in forest.edges.values() if not isinstance(edge.parent, Root)}
+    for child, edge in sorted(forest.edges.items()):
+        if edge.relation is not Relation.RESTS_ON or isinstance(edge.parent, Root) or edge.parent not in objects:
+            continue
+        if child in carrying:
+            continue  # a support's level is where its own children were seen standing (``top_cuts``)
+        obj = objects[child]
+        if obj.exact_shape or obj.points is None or len(obj.points) < MIN_POINTS:
+            continue
+        seen = points_in_box(obj)
+        if len(seen) < MIN_POINTS:
+            continue
+        verts = obj.world_vertices()
+        heights = room.floor_distance(verts)
+        low, top = float(heights.min()), float(heights.max())
+        reach = float(np.percentile(room.floor_distance(seen), POINTS_REACH_PERCENTILE))
+        if reach - low <= TRIM_MARGIN or top - reach < MIN_KEPT_SHARE * (top - low):
+            continue
+        parent = objects[InstanceId(edge.parent)]
+        if parent.points is None or len(parent.points) < MIN_POINTS:
+            continue
+        around = footprint(verts).buffer(SEAT_AROUND)
+        pts = np.asarray(parent.points, np.float64)
+        pts = pts[shapely.contains_xy(around, pts[:, 0], pts[:, 1])]
+        if int(np.count_nonzero(np.abs(room.floor_distance(pts) - reach) <= SEAT_REACH)) < MIN_POINTS:
+            continue  # the parent's surface was not seen there: the points may show only a rim or a top
+        origin = verts[int(np.argmin(heights))] + (reach - low) * room.up
+        cuts = [
+            cut_plane(
+                child,
+                obj.world_from_asset,
+                origin,
+                room.up,
+                f"the generated mesh reaches {reach - low:.3f} m below where its points show it standing on its "
+                "support: cut there",
+            )
+        ]
+        upper = float(np.percentile(room.floor_distance(seen), 100.0 - POINTS_REACH_PERCENTILE))
+        if top - upper > TRIM_MARGIN and upper - reach >= MIN_KEPT_SHARE * (top - low):
+            # seen from its bottom up, the object ends where its points end
+            origin = verts[int(np.argmax(heights))] - (top - upper) * room.up
+            source = (
+                f"the generated mesh reaches {top - upper:.3f} m above its points, seen down to its support: cut there"
+            )
+            cuts.append(cut_plane(child, obj.world_from_asset, origin, -room.up, source))
+        out[child] = cuts
     return out
 
 

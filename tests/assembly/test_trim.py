@@ -128,3 +128,42 @@ def test_points_far_behind_a_wall_are_strays_and_the_completion_is_cut_near_the_
     graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
     layout = attach({InstanceId(1): cabinet}, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
     assert layout.world_from_asset[InstanceId(1)][1, 3] - cabinet.world_from_asset[1, 3] <= 0.021
+
+
+def _counter_and_cup(cup_points_low: float):
+    """A generated counter 0.9 m tall seen from above (points on its top) and a cup 0.08 m tall on it whose
+    generated mesh is 0.14 m tall, registered on the cup's points with 0.03 m of surplus below and above;
+    the cup's points reach down to ``cup_points_low`` m."""
+    rng = np.random.default_rng(3)
+    top = np.c_[rng.uniform(1.5, 2.5, 2000), rng.uniform(2.2, 2.8, 2000), rng.normal(0.9, 0.002, 2000)]
+    counter = replace(box_object(1, "counter", (1.0, 0.6, 0.9), placed(2.0, 2.5), exact_shape=False), points=top)
+    ring = rng.uniform(0.0, 2.0 * np.pi, 600)
+    side = np.c_[2.0 + 0.04 * np.cos(ring), 2.5 + 0.04 * np.sin(ring), rng.uniform(cup_points_low, 0.98, 600)]
+    cup = replace(box_object(2, "cup", (0.08, 0.08, 0.14), placed(2.0, 2.5, 0.87), exact_shape=False), points=side)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 0.87),
+        )
+    )
+    return {InstanceId(1): counter, InstanceId(2): cup}, graph
+
+
+def test_a_childs_completion_taller_than_its_points_is_cut_where_they_end_and_seated_there():
+    objects, graph = _counter_and_cup(0.9)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    cuts = [c for c in layout.completions()[InstanceId(2)] if c.kind is CompletionKind.CUT]
+    assert len(cuts) == 2  # below the bottom and above the top the capture saw
+    cup = visual_objects(objects, layout)[InstanceId(2)].world_vertices(layout.world_from_asset[InstanceId(2)])
+    # on the counter's top where it was seen, not lifted 3 cm by the surplus below its points
+    assert abs(cup[:, 2].min() - 0.9) < 0.005
+    assert abs(cup[:, 2].max() - 0.98) < 0.005
+    metrics = structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())
+    assert metrics["support_contact_pass"] == 1.0
+
+
+def test_a_child_seen_only_above_its_support_is_not_cut():
+    # the cup's points end 5 cm above the counter (its rim seen over a bowl in front): its bottom was not seen
+    objects, graph = _counter_and_cup(0.95)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    assert not [c for c in layout.completions().get(InstanceId(2), []) if c.kind is CompletionKind.CUT]
