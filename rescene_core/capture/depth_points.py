@@ -190,6 +190,20 @@ class _Spill:
         return out
 
 
+READ_FRAMES = 16
+"""Frames read at a time from arrays on disk (a zarr read of several chunks decodes them concurrently)."""
+
+
+def _frames(*arrays: Any) -> Any:
+    """(t, frame t of each array as numpy) for t = 0 .. T - 1, reading ``READ_FRAMES`` frames at a time."""
+    n = int(arrays[0].shape[0])
+    for a in range(0, n, READ_FRAMES):
+        b = min(a + READ_FRAMES, n)
+        slabs = [np.asarray(x[a:b]) for x in arrays]
+        for k in range(b - a):
+            yield (a + k, *(s[k] for s in slabs))
+
+
 def depth_edges(depth: NDArray[np.float32], ratio: float) -> NDArray[np.bool_]:
     """Pixels [H, W] next to a relative depth jump above ``ratio`` (or next to invalid depth)."""
     d = depth.astype(np.float32)
@@ -237,10 +251,9 @@ def scene_points(
     frames, streamed). spill_dir: where the temporary file goes (default: the system's temporary directory)."""
     with tempfile.TemporaryDirectory(prefix="rescene-points-", dir=spill_dir) as folder:
         spill = _Spill(Path(folder), colors=False)
-        for t in range(int(depth.shape[0])):
+        for t, d in _frames(depth):
             if t % SPILL_FRAMES == 0:
                 spill.flush()
-            d = np.asarray(depth[t])
             p, _, _ = backproject(d, K[t], world_from_cam[t], np.ones(d.shape, bool), stride)
             spill.add(0, p)
         spill.flush()
@@ -285,11 +298,9 @@ def _instance_points(
     spill = _Spill(folder, colors=True)
     stats = {"eroded_pixels": 0, "depth_edge_pixels": 0, "outlier_points": 0}
     r = max(0, int(cfg.erode_px))
-    for t in range(int(masks.shape[0])):
+    for t, m, d, image in _frames(masks, depth, rgb):
         if t % SPILL_FRAMES == 0:
             spill.flush()
-        m = np.asarray(masks[t])
-        d = np.asarray(depth[t])
         ids = np.unique(m)
         ids = ids[ids > 0]
         if not len(ids):
@@ -309,7 +320,7 @@ def _instance_points(
         if not len(pts):
             continue
         lab = m[vs, us]
-        col = np.asarray(rgb[t])[vs, us]
+        col = image[vs, us]
         order = np.argsort(lab, kind="stable")
         lab, pts, col = lab[order], pts[order], col[order]
         cuts = np.flatnonzero(np.diff(lab)) + 1
