@@ -182,6 +182,9 @@ class SegmentConfig(BaseModel):
     """... fewest frames in which two touching superpoints both vote before they can join..."""
     consensus_fraction: float = 0.6
     """... and the share of those frames that must give both the same id."""
+    unmasked_share: float = 0.5
+    """... a superpoint whose vote is no mask (id 0) in this share of the frames it votes in belongs to no
+    instance."""
     clip_views: int = 3
     """Views per segment shown to the zero-shot classifier (the largest masks)."""
 

@@ -5,7 +5,8 @@ TSDF, structure planes, superpoints). Each superpoint reads its id in every fram
 (``rescene_core.segment.lift``); touching regions, starting from the superpoints, are merged
 agglomeratively, the best agreeing pair first, while among the frames in which both cast a confident vote
 most give them the same id. A region votes with all its points, so a superpoint straddling two objects
-cannot bridge them. Ids need not agree across frames, so SAM 2 automatic
+cannot bridge them; the points of such a superpoint that read a touching region's id in most frames are
+then split off to that region (``split_straddling``). Ids need not agree across frames, so SAM 2 automatic
 masks or CropFormer's can be used as they are written. A superpoint most frames leave unmasked (id 0), or
 that no frame sees, belongs to no instance. Regions are then filtered as in the geometric front end; a
 consensus region lying on a wall and hanging clear of the floor and ceiling is a flush object (a picture,
@@ -17,6 +18,7 @@ from __future__ import annotations
 import heapq
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +35,7 @@ from rescene_core.segment.geometric import (
     wall_superpoints,
 )
 from rescene_core.segment.lift import FrameCounts, frame_counts, votes_from_counts
+from rescene_core.segment.superpoints import edge_weights, superpoint_graph
 
 
 def vote_sample(sp: ScanPoints, per_superpoint: int, seed: int = 0) -> NDArray[np.int64]:
@@ -101,7 +104,7 @@ def consensus_regions(
     votes = votes_from_counts(counts, n_frames, cfg.vote_min_points)
     voted = np.bincount(votes.sp, minlength=n)
     unmasked = np.bincount(votes.sp, (votes.mask_id == 0).astype(float), n)
-    masked = (voted > 0) & (unmasked < 0.5 * np.maximum(voted, 1))
+    masked = (voted > 0) & (unmasked < cfg.unmasked_share * np.maximum(voted, 1))
     reads: dict[int, dict[int, dict[int, int]]] = {}
     for s_, t, i, c in zip(counts.sp.tolist(), counts.frame.tolist(), counts.mask_id.tolist(),
                            counts.count.tolist(), strict=True):  # fmt: skip
@@ -161,6 +164,100 @@ def consensus_regions(
     return region, stats
 
 
+def region_votes(
+    counts: FrameCounts, region: NDArray[np.int64], n_frames: int, cfg: SegmentConfig
+) -> NDArray[np.int64]:
+    """Each region's confident vote per frame [r + 1, T] (-1: none; row 0 is no region): the id most of
+    its superpoints' voting points read there, not 0, read by ``vote_min_share`` of at least
+    ``vote_min_points`` visible points. ``region`` [s]: the region of each superpoint of ``counts``."""
+    n_regions = int(region.max(initial=0)) + 1
+    table = np.full((n_regions, n_frames), -1, np.int64)
+    r = region[counts.sp]
+    keep = r > 0
+    if not keep.any():
+        return table
+    key, ids, cnt = r[keep] * n_frames + counts.frame[keep], counts.mask_id[keep], counts.count[keep]
+    span = int(ids.max(initial=0)) + 1
+    uk, inv = np.unique(key * span + ids, return_inverse=True)
+    total = np.bincount(inv, cnt)
+    rk, rid = uk // span, uk % span
+    order = np.lexsort((rid, -total, rk))  # per (region, frame) the most read id first, the lower on a tie
+    rk, rid, total = rk[order], rid[order], total[order]
+    first = np.flatnonzero(np.r_[True, rk[1:] != rk[:-1]])
+    seen = np.add.reduceat(total, first)
+    ok = (rid[first] > 0) & (seen >= cfg.vote_min_points) & (total[first] >= cfg.vote_min_share * seen)
+    table[rk[first][ok] // n_frames, rk[first][ok] % n_frames] = rid[first][ok]
+    return table
+
+
+def split_straddling(
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    votes: NDArray[np.int64],
+    frame_masks: Sequence[NDArray | None],
+    K: NDArray,
+    world_from_cam: NDArray,
+    depth: NDArray[np.float32],
+    cfg: SegmentConfig,
+) -> tuple[ScanPoints, NDArray[np.int64], int]:
+    """Superpoints the masks consistently cut are split between the regions they straddle.
+
+    A superpoint is coarser than a book (2.5 cm points), so one can hold a book stack's edge and the shelf's
+    lip, or a lamp's base disc and the desk top under it. Every point of a superpoint touching another
+    region reads its own mask id in each frame (``frame_counts``, with the depth test); it moves to a touching
+    region when it reads that region's vote (``votes`` [r + 1, T] from ``region_votes``) in at least
+    ``consensus_fraction`` of the frames (``consensus_min_frames`` or more) in which both see it, and its
+    own region's in less than 1 - ``consensus_fraction``. Returns the scan points with the new superpoint
+    graph, the region [s'] of each new superpoint and how many points moved."""
+    g = sp.graph
+    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+    border = (ra > 0) & (rb > 0) & (ra != rb) & (g.contacts >= cfg.min_contacts)
+    if not border.any():
+        return sp, region, 0
+    # (superpoint, candidate region) pairs: each border superpoint and the regions it touches
+    n_reg = votes.shape[0]
+    cand = np.unique(np.r_[g.pairs[border, 0] * n_reg + rb[border], g.pairs[border, 1] * n_reg + ra[border]])
+    cand_sp, cand_reg = cand // n_reg, cand % n_reg
+    pts = np.flatnonzero(np.isin(g.label, cand_sp))
+    reads = frame_counts(
+        sp.points[pts], np.arange(len(pts)), frame_masks, K, world_from_cam, depth,
+        cfg.depth_abs_tolerance, cfg.depth_rel_tolerance,
+    )  # fmt: skip
+    p_local, t, m = reads.sp, reads.frame, reads.mask_id
+    own = region[g.label[pts]]
+    v_own = votes[own[p_local], t]
+    agree_own = np.bincount(p_local, (v_own >= 0) & (v_own == m), len(pts))
+    own_rate = agree_own / np.maximum(np.bincount(p_local, v_own >= 0, len(pts)), 1)
+    # every read against every candidate region of its point's superpoint
+    starts = np.searchsorted(cand_sp, g.label[pts])
+    per_read = (np.searchsorted(cand_sp, g.label[pts], side="right") - starts)[p_local]
+    read_idx = np.repeat(np.arange(len(t)), per_read)
+    slot = np.arange(len(read_idx)) - np.repeat(np.cumsum(per_read) - per_read, per_read)
+    which = starts[p_local[read_idx]] + slot  # the (superpoint, region) candidate of each pairing
+    v = votes[cand_reg[which], t[read_idx]]
+    uk, inv = np.unique(p_local[read_idx] * len(cand) + which, return_inverse=True)
+    agree = np.bincount(inv, (v >= 0) & (v == m[read_idx]))
+    seen = np.bincount(inv, v >= 0)
+    point, pair = uk // len(cand), uk % len(cand)
+    ok = (seen >= cfg.consensus_min_frames) & (agree >= cfg.consensus_fraction * seen)
+    ok &= own_rate[point] < 1.0 - cfg.consensus_fraction
+    target = own.copy()
+    score = agree / np.maximum(seen, 1)
+    for i in np.flatnonzero(ok)[np.argsort(score[ok], kind="stable")].tolist():  # the best agreeing last
+        target[point[i]] = cand_reg[pair[i]]
+    moved = int((target != own).sum())
+    if moved == 0:
+        return sp, region, 0
+    point_region = region[g.label]
+    point_region[pts] = target
+    key2 = g.label * n_reg + point_region
+    uk2, label = np.unique(key2, return_inverse=True)
+    new_region = (uk2 % n_reg).astype(np.int64)
+    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
+    graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
+    return replace(sp, graph=graph), new_region, moved
+
+
 def segment_masks(
     rgb: NDArray[np.uint8],
     depth: NDArray[np.float32],
@@ -197,6 +294,10 @@ def segment_masks(
     seconds["votes"] = time.perf_counter() - t
     t = time.perf_counter()
     region, stats = consensus_regions(sp, counts, T, cfg)
+    votes = region_votes(counts, region, T, cfg)
+    sp, region, stats["points_moved_to_a_touching_region"] = split_straddling(
+        sp, region, votes, frame_masks, K, world_from_cam, depth, cfg
+    )
     which, _ = wall_superpoints(sp, planes, cfg)
     # consensus regions are no fragments of geometry: they keep the smaller least size
     small = cfg.model_copy(update={"min_segment_points": cfg.masks_min_segment_points})

@@ -135,3 +135,39 @@ def test_consensus_keeps_a_stack_apart_from_its_shelf_across_straddling_superpoi
     )
     assert region[0] == region[1] != region[3] == region[2]
     assert region.min() > 0 and stats["joined_by_consensus"] == 2
+
+
+def test_a_superpoint_the_masks_cut_is_split_between_its_regions():
+    from rescene_core.segment.geometric import ScanPoints, SegmentConfig
+    from rescene_core.segment.lift import FrameCounts
+    from rescene_core.segment.masks import region_votes, split_straddling
+    from rescene_core.segment.superpoints import edge_weights, point_graph, superpoint_graph
+
+    # a 1 m x 0.5 m board 2 m in front of a camera, 2.5 cm points; superpoint 0 holds the left half and a
+    # 10 cm strip of the right (a book's edge fused with its shelf), superpoint 1 the rest of the right
+    xs, ys = np.meshgrid(np.arange(-0.5, 0.5, 0.025) + 0.0125, np.arange(-0.25, 0.25, 0.025) + 0.0125)
+    points = np.c_[xs.ravel(), ys.ravel(), np.full(xs.size, 2.0)]
+    normals = np.tile([0.0, 0.0, -1.0], (len(points), 1))
+    colours = np.full((len(points), 3), 0.5)
+    label = (points[:, 0] > 0.1).astype(np.int64)
+    edges = point_graph(points, 0.04)
+    _, concave, step = edge_weights(points, normals, colours, edges, 1.0)
+    graph = superpoint_graph(points, normals, colours, label, edges, concave, step)
+    sp = ScanPoints(points, normals, colours, np.zeros(len(points), np.int64), np.zeros(0, np.int64), edges, graph)
+    T, H, W = 6, 240, 320
+    K = np.tile(np.array([[200.0, 0, 160], [0, 200.0, 120], [0, 0, 1]]), (T, 1, 1))
+    world_from_cam = np.tile(np.eye(4), (T, 1, 1))
+    depth = np.full((T, H, W), 2.0, np.float32)
+    # each frame's masks part the board at x = 0 (pixel column 160), with ids drawn anew in every frame
+    masks = [np.where(np.arange(W)[None, :] < 160, 3 + 2 * t, 4 + 2 * t) * np.ones((H, 1), np.int64) for t in range(T)]
+    region = np.array([1, 2])
+    reads = [(s, t, int(masks[t][120, 80 if s == 0 else 300]), 40) for s in (0, 1) for t in range(T)]
+    counts = FrameCounts(*(np.array(c, np.int64) for c in zip(*sorted(reads), strict=True)))
+    votes = region_votes(counts, region, T, SegmentConfig())
+    assert votes.shape == (3, T) and (votes[0] == -1).all() and (votes[1] != votes[2]).all()
+    sp2, region2, moved = split_straddling(sp, region, votes, masks, K, world_from_cam, depth, SegmentConfig())
+    point_region = region2[sp2.graph.label]
+    strip = (points[:, 0] > 0.0) & (points[:, 0] <= 0.1)
+    assert moved == strip.sum() > 0
+    assert (point_region[strip] == 2).all() and (point_region[points[:, 0] < 0] == 1).all()
+    assert (point_region[points[:, 0] > 0.1] == 2).all() and sp2.graph.size == 3
