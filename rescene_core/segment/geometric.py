@@ -161,6 +161,9 @@ class SegmentConfig(BaseModel):
     (a chair's or sofa's back, a headboard) and stays with it."""
     support_band: float = 0.04
     """A body whose lowest point is within this of a top's height, or above it, stands on it (m)."""
+    stored_cover_gap: float = 0.3
+    """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
+    most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
     structure_band: float = 0.06
     """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
     sliver_thickness: float = 0.07
@@ -593,7 +596,8 @@ def _rejoin_enclosed(
                 continue
             tops = sp.points[up_idx[up_bounds[big] : up_bounds[big + 1]]]
             if not by_extent and _rests_on(tops, lo[small], hi[small], lo[big], hi[big], cfg):
-                continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
+                if not _stored_upright(sp.points[point_region == big], lo[small], hi[small], cfg):
+                    continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
             remap[small] = big
             joined += 1
             changed = True
@@ -619,12 +623,26 @@ def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: 
     return int(under.sum()) >= cfg.min_contacts
 
 
+def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether a region with bounds ``lo``, ``hi`` [3] (m) resting on a shelf of a larger one (its points
+    ``big`` [k, 3]) is stored in it: taller than its smaller horizontal extent (books standing upright)
+    and under a board of the larger one (``min_contacts`` of its points over the footprint, at most
+    ``stored_cover_gap`` above the top). A book stack lies flat; a monitor or a lamp has no board over it."""
+    if hi[2] - lo[2] < min(hi[:2] - lo[:2]):
+        return False
+    over = np.all((big[:, :2] >= lo[:2]) & (big[:, :2] <= hi[:2]), axis=1)
+    over &= (big[:, 2] > hi[2]) & (big[:, 2] <= hi[2] + cfg.stored_cover_gap)
+    return int(over.sum()) >= cfg.min_contacts
+
+
 def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
     """Slender upright regions (narrower than ``leg_max_width`` one way or both, twice as tall as that) whose
     upper end lies just under a broader region join it: the legs and side panels of a table or a desk, cut
     off at the crease under its top, or parted from it by a gap the fusion left. The broader region has
     ``min_contacts`` points or more above the upright's footprint (grown by ``support_band``) between
-    ``support_band`` below its upper end and three times that above, and its bounds contain that footprint.
+    ``support_band`` below its upper end and three times that above, and its bounds contain that footprint;
+    with no surface there, the smallest region whose bounds hold the upright's upper end and footprint and
+    begin at most three ``support_band`` below that end (a floor lamp's pole reaching into its open shade).
     Returns the regions and how many joined."""
     g = sp.graph
     region = region.copy()
@@ -646,11 +664,13 @@ def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) 
         near &= (sp.points[:, 2] >= hi[r, 2] - band) & (sp.points[:, 2] <= hi[r, 2] + 3 * band)
         owners = point_region[near]
         owners = owners[(owners > 0) & (owners != r)]
-        if len(owners) < cfg.min_contacts:
-            continue
-        top = int(np.bincount(owners).argmax())
-        if np.bincount(owners)[top] < cfg.min_contacts or slender[top]:
-            continue
+        top = int(np.bincount(owners).argmax()) if len(owners) else 0
+        if len(owners) < cfg.min_contacts or np.bincount(owners)[top] < cfg.min_contacts or slender[top]:
+            # no surface just above it: its upper end may reach into a hollow region hanging over it (a
+            # floor lamp's pole ends inside its open shade, whose surface lies beyond the pole's footprint)
+            top = _hollow_over(r, lo, hi, slender, band)
+            if top == 0:
+                continue
         inside = np.all(lo[top, :2] - band <= lo[r, :2]) and np.all(hi[r, :2] <= hi[top, :2] + band)
         if inside and hi[top, 2] > hi[r, 2] + band:
             remap[r] = top
@@ -659,6 +679,19 @@ def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) 
     for _ in range(3):
         remap = remap[remap]
     return remap[region], joined
+
+
+def _hollow_over(r: int, lo: NDArray, hi: NDArray, slender: NDArray[np.bool_], band: float) -> int:
+    """The region (0: none) whose bounds ``lo``, ``hi`` [n, 3] (m) hold region r's upper end and footprint and
+    begin within three ``band`` below that end: what r reaches up into. The smallest such region wins."""
+    cand = (lo[:, :2] - band <= lo[r, :2]).all(axis=1) & (hi[r, :2] <= hi[:, :2] + band).all(axis=1)
+    cand &= (lo[:, 2] >= hi[r, 2] - 3 * band) & (lo[:, 2] <= hi[r, 2] + band) & (hi[:, 2] > hi[r, 2] + band)
+    cand &= ~slender & (np.arange(len(lo)) > 0)
+    cand[r] = False
+    if not cand.any():
+        return 0
+    volume = np.prod(np.where(cand[:, None], hi - lo, np.inf), axis=1)
+    return int(np.argmin(volume))
 
 
 def _absorb_small(g: SuperpointGraph, region: NDArray[np.int64], cfg: SegmentConfig) -> NDArray[np.int64]:

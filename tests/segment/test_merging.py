@@ -71,3 +71,32 @@ def test_a_hanging_region_faces_the_room_as_its_wall_does():
     stray /= np.linalg.norm(stray, axis=1, keepdims=True)
     assert not _faces_wall(face, stray, planes, CFG)
     assert not _faces_wall(face, np.tile([1.0, 0.0, 0.0], (len(face), 1)), planes[:1], CFG)  # no wall
+
+
+def test_upright_books_under_a_shelf_board_are_stored_a_flat_stack_or_a_monitor_is_not():
+    from rescene_core.segment.geometric import SegmentConfig, _stored_upright
+
+    cfg = SegmentConfig()
+    rng = np.random.default_rng(0)
+    # a bookcase cell: the board over it 5 cm above a 26 cm row of books 18 cm deep, 40 cm wide
+    board = np.c_[rng.uniform(0, 0.7, 300), rng.uniform(0, 0.3, 300), np.full(300, 0.71)]
+    row_lo, row_hi = np.array([0.05, 0.01, 0.4]), np.array([0.45, 0.19, 0.66])
+    assert _stored_upright(board, row_lo, row_hi, cfg)
+    # a book stack on the same shelf lies flat (12 cm tall, 20 cm deep)
+    assert not _stored_upright(board, np.array([0.05, 0.01, 0.4]), np.array([0.25, 0.21, 0.52]), cfg)
+    # a monitor on a desk is upright, but nothing of the desk lies over it
+    desk = np.c_[rng.uniform(0, 1.2, 300), rng.uniform(0, 0.6, 300), np.full(300, 0.75)]
+    assert not _stored_upright(desk, np.array([0.3, 0.2, 0.75]), np.array([0.9, 0.36, 1.15]), cfg)
+
+
+def test_a_lamp_pole_reaching_into_its_open_shade_finds_the_shade():
+    from rescene_core.segment.geometric import _hollow_over
+
+    # regions: 1 the pole (3 cm wide, up to 1.30 m), 2 the shade (1.25-1.55 m, 40 cm wide, hollow), 3 a
+    # bookcase beside it from the floor, 4 a table whose top lies far under the pole's end
+    lo = np.array([[np.inf] * 3, [0.0, 0.0, 0.04], [-0.2, -0.2, 1.25], [-1.0, -1.0, 0.0], [-0.5, -0.5, 0.0]])
+    hi = np.array([[-np.inf] * 3, [0.03, 0.03, 1.30], [0.23, 0.23, 1.55], [1.0, 1.0, 1.9], [0.5, 0.5, 0.75]])
+    slender = np.array([False, True, False, False, False])
+    assert _hollow_over(1, lo, hi, slender, 0.04) == 2
+    lo[2, 2] = 1.45  # a shade beginning 15 cm over the pole's end is no part of it
+    assert _hollow_over(1, lo, hi, slender, 0.04) == 0
