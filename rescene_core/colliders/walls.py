@@ -73,10 +73,11 @@ def clear_of_walls(
         for k, piece in enumerate(out):
             world = place.world(piece[0])
             signed = world @ normal + float(wall.plane.offset)
-            behind = signed < -MIN_CUT_DEPTH
-            if not behind.any():
+            if not (signed < -MIN_CUT_DEPTH).any():
                 continue
-            along = (world[behind, :2] - start) @ tangent
+            # where the piece's volume is behind the plane: its vertices there and where its edges cross the plane
+            # (a piece reaching past the end of a wall's box crosses the box's end edge between its vertices)
+            along = (_behind_plane(world, piece[1], signed)[:, :2] - start) @ tangent
             depth = float(-signed.min())
             if depth > limit or along.max() < 0 or along.min() > length:
                 continue  # a layout fault, or the plane beyond the wall's box (another wing of the room)
@@ -86,6 +87,17 @@ def clear_of_walls(
             out[k] = (place.body(kept[0]), kept[1])
             cut[str(wall.id)] = round(max(cut.get(str(wall.id), 0.0), depth), 4)
     return out, cut
+
+
+def _behind_plane(world: NDArray[np.float64], faces: NDArray, signed: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Points spanning a convex piece's part behind a plane: its vertices with ``signed`` distance < 0 and the
+    points where its edges cross the plane [n, 3] (world)."""
+    edges = np.unique(np.sort(np.asarray(faces)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    da, db = signed[edges[:, 0]], signed[edges[:, 1]]
+    cross = (da < 0) != (db < 0)
+    t = da[cross] / (da[cross] - db[cross])
+    a, b = world[edges[cross, 0]], world[edges[cross, 1]]
+    return np.vstack([world[signed < 0], a + t[:, None] * (b - a)])
 
 
 def walls_report(cut: dict[str, float]) -> dict[str, Any] | None:

@@ -75,6 +75,24 @@ def test_a_wall_plane_beyond_its_segment_cuts_nothing():
     assert depth == {}
 
 
+def test_a_piece_crossing_the_end_of_a_walls_box_between_its_vertices_is_cut():
+    # a wedge whose vertices behind the plane all lie past the segment's end (x > -1): its edge still crosses
+    # the plane at x = -1.0125, inside the wall's box (a wardrobe's piece in a corner the wall box stops short of)
+    short = RoomShell(
+        floor=CORNER_SHELL.floor,
+        walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (-1.0, -2.0))),),
+        floor_polygon=((-2.0, -2.0), (-1.0, -2.0), (-1.0, 2.0), (-2.0, 2.0)),
+        ceiling_height=2.5,
+    )
+    corners = np.array([[-1.2, -1.95], [-0.9, -2.03], [-1.2, -1.8], [-0.9, -1.8]])
+    wedge = trimesh.convex.convex_hull(np.vstack([np.c_[corners, np.zeros(4)], np.c_[corners, np.ones(4)]]))
+    obj = ExportObject(1, "wardrobe", wedge.vertices, wedge.faces, np.eye(4))
+    pieces = [(np.asarray(wedge.vertices, np.float64), np.asarray(wedge.faces, np.int64))]
+    cut, depth = clear_of_walls(placement(obj), pieces, trimmed_walls(short))
+    assert depth == {"0": pytest.approx(0.03)}
+    assert cut[0][0][:, 1].min() == pytest.approx(-2.0, abs=1e-9)
+
+
 def test_a_tall_lamp_8_mm_into_both_walls_of_a_corner_stands(tmp_path):
     from rescene_core.sim import SimcheckConfig, simcheck_run
 
