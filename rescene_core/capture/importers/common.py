@@ -11,7 +11,7 @@ from __future__ import annotations
 import csv
 import functools
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -426,7 +426,9 @@ def load_frames(
         medians = [m for m in (_safe_median(p) for p in probe) if m is not None]
         check_depth_units(medians, depth_scale, depth_files[ok[0]].parent, opts)
 
-    def read(j: int) -> tuple[NDArray, NDArray | None, NDArray | None] | ImportInputError:
+    def read(j: int) -> tuple[NDArray, NDArray | None, NDArray | None, tuple[int, int]] | ImportInputError:
+        """Frame j decoded: colour (brought to ``size`` here, in the reading thread, when it is known),
+        depth, mask, and the colour's own (height, width)."""
         k = ok[j]
         try:
             rgb = read_rgb(rgb_files[k])
@@ -434,12 +436,18 @@ def load_frames(
             mask = read_mask(mask_files[k]) if mask_files is not None else None
         except ImportInputError as err:
             return err
-        return rgb, depth, mask
+        shape = (int(rgb.shape[0]), int(rgb.shape[1]))
+        if size is not None and shape != (size[1], size[0]):
+            rgb = resize(rgb, size[0], size[1], nearest=False)
+        return rgb, depth, mask, shape
 
     # Frames are decoded a chunk at a time and written into a temporary zarr store with the capture's own
     # chunks and codec (``FrameStore``); the capture writer takes those chunk files over, so reading holds
-    # one chunk of frames, whatever the scan's length.
+    # two chunks of frames (one being encoded in a writer thread while the next is decoded), whatever the
+    # scan's length.
     n_ok = len(ok)
+    writer = ThreadPoolExecutor(max_workers=1)
+    pending: Future[None] | None = None
     store: FrameStore | None = None
     K_out = np.zeros((n_ok, 3, 3))
     kept: list[int] = []
@@ -457,7 +465,7 @@ def load_frames(
             if isinstance(item, ImportInputError):
                 dropped.append(Dropped(source_index[k], rgb_files[k].name, f"unreadable: {item}"))
                 continue
-            rgb, depth, mask = item
+            rgb, depth, mask, rgb_shape = item
             if store is None:
                 if size is None:
                     ref = depth if depth is not None else rgb
@@ -465,10 +473,11 @@ def load_frames(
                 w, h = size
                 store = FrameStore(n_ok, h, w, depth_files is not None, mask_files is not None)
             K = np.asarray(Ks[k], np.float64).copy()
-            if rgb.shape[:2] != (h, w):
-                K = scale_intrinsics(K, rgb.shape[1], rgb.shape[0], w, h)
-                rgb = resize(rgb, w, h, nearest=False)
+            if rgb_shape != (h, w):
+                K = scale_intrinsics(K, rgb_shape[1], rgb_shape[0], w, h)
                 resized_rgb = True
+            if rgb.shape[:2] != (h, w):  # the first frame, read before the size was known
+                rgb = resize(rgb, w, h, nearest=False)
             rgbs.append(rgb)
             K_out[len(kept)] = K
             if depth is not None:
@@ -480,13 +489,21 @@ def load_frames(
                 masks.append(mask if mask.shape == (h, w) else resize(mask, w, h, nearest=True))
             kept.append(j)
         del loaded
+        if pending is not None:
+            pending.result()  # one chunk in flight: memory stays at two chunks
+            pending = None
         if store is not None and rgbs:
-            store.write(
+            pending = writer.submit(
+                store.write,
                 first,
                 np.stack(rgbs),
                 np.stack(depths) if depths else None,
                 np.stack(masks).astype(np.int32, copy=False) if masks else None,
             )
+        del rgbs, depths, masks
+    if pending is not None:
+        pending.result()
+    writer.shutdown()
     unreadable = sum(1 for d in dropped if d.reason.startswith("unreadable"))
     if store is None or not kept or unreadable > opts.max_unreadable_fraction * n_ok:
         first_bad = next((d for d in dropped if d.reason.startswith("unreadable")), None)
