@@ -15,12 +15,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.assembly.evidence import centre_inside_polygon, level_pivot, polygon_excursion
+from rescene_core.assembly.evidence import centre_inside_polygon, level_pivot, levelling, polygon_excursion
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import (
-    level_correction,
     nearest_axis,
     rotation_about,
     signed_yaw,
@@ -64,7 +63,7 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
     pose = state.pose(child)
     pivot = level_pivot(state, child)
     info: dict[str, Any] = {}
-    level, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    level, tilt = levelling(state, child, pose)
     correction = level
     info["tilt_removed_deg"] = float(np.degrees(tilt))
     if cfg.floor_yaw_align:

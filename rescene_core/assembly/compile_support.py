@@ -28,11 +28,11 @@ from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from rescene_core.assembly.evidence import level_pivot, points_in_box
+from rescene_core.assembly.evidence import levelling, points_in_box
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.transforms import level_correction, translation
+from rescene_core.assembly.transforms import translation
 from rescene_core.geometry.sim3 import apply, inverse
 from rescene_core.records import Completion, CompletionKind, Edge, InstanceId
 
@@ -343,8 +343,7 @@ def compile_support(
         return None, {"reason": f"parent {parent} has no upward-facing support face"}
     obj = state.objects[child]
     pose = state.pose(child)
-    pivot = level_pivot(state, child)
-    correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
+    correction, tilt = levelling(state, child, pose)
     moved = apply(correction @ pose, obj.vertices)
     bottom = float(room.floor_distance(moved).min())
     # the level is chosen by where the child was seen standing, not where its parent's correction took it

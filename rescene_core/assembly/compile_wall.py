@@ -30,11 +30,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.assembly.evidence import centre_inside_wall, face_yaw, level_pivot, wall_gap, yaw_to_direction
+from rescene_core.assembly.evidence import (
+    centre_inside_wall,
+    face_yaw,
+    level_pivot,
+    levelling,
+    wall_gap,
+    yaw_to_direction,
+)
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import (
-    level_correction,
     nearest_axis,
     rotation_about,
     signed_yaw,
@@ -168,12 +174,9 @@ def compile_wall(
     pose = state.pose(child)
     side: dict[str, Any] = {}
     pivot = level_pivot(state, child)
-    if obj.exact_shape:
-        correction, tilt = level_correction(pose, room.up, pivot, np.radians(cfg.max_level_tilt_deg))
-    else:
-        # a generated asset's frame is z-up (both backends): nothing hangs on a wall on its side, so a tilt
-        # past the limit is registration rolling a box-like shape about its long axis (a wall shelf 48 deg)
-        correction, tilt = level_correction(pose, room.up, pivot, np.pi, candidates=(2,))
+    # nothing hangs on a wall on its side: a generated asset past the exact shapes' limit is registration rolling
+    # a box-like shape about its long axis (a wall shelf 48 deg)
+    correction, tilt = levelling(state, child, pose)
     if plan.axis >= 0:  # exact shape: the asset axis is the object's back axis
         axis = plan.sign * (correction @ pose)[:3, plan.axis]
         yaw = signed_yaw(axis, -wall.normal, room.up)

@@ -33,7 +33,7 @@ from shapely.geometry import Point, Polygon
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Wall
 from rescene_core.assembly.state import LayoutState
-from rescene_core.assembly.transforms import horizontal, nearest_axis, signed_yaw
+from rescene_core.assembly.transforms import horizontal, level_correction, nearest_axis, signed_yaw
 from rescene_core.geometry.sim3 import apply, inverse, scale_of
 from rescene_core.records import InstanceId
 
@@ -292,3 +292,18 @@ def level_pivot(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
             now = apply(state.pose(i) @ inverse(obj.world_from_asset), np.median(seen, axis=0)[None])[0]
             return np.asarray(now, dtype=np.float64)
     return state.centre(i)
+
+
+def levelling(state: LayoutState, i: InstanceId, pose: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+    """Rotation [4, 4] levelling object i at ``pose`` about ``level_pivot``, and the tilt it removes (rad).
+
+    A generated asset's frame is z-up (both backends, and the registration's rotation gate measures the tilt
+    of that axis), so its +z is turned onto the floor normal whatever the tilt: registration passes a pose up
+    to its result gate (50 deg), and a table lamp registered 49 deg over, left tilted past the 45 deg an exact
+    shape's limit allows, fell off its desk. An exact shape's frame is the object's own (a box may lie on its
+    side on purpose): its axis nearest the floor normal is levelled when tilted at most
+    ``max_level_tilt_deg``."""
+    obj, up, pivot = state.objects[i], state.room.up, level_pivot(state, i)
+    if obj.exact_shape:
+        return level_correction(pose, up, pivot, np.radians(state.config.max_level_tilt_deg))
+    return level_correction(pose, up, pivot, np.pi, candidates=(2,))

@@ -69,3 +69,24 @@ def test_an_exact_child_is_carried_with_its_support():
     cup = objects[InstanceId(2)]
     step = layout.world_from_asset[InstanceId(2)][1, 3] - cup.world_from_asset[1, 3]
     assert step > 0.01  # part of the counter's step, as Eq. 5 carries it
+
+
+def test_a_generated_child_registered_past_the_exact_shapes_limit_is_levelled_on_its_support():
+    # a table lamp registered 49 deg over (the registration's result gate passes up to 50) on a desk: its
+    # asset frame is z-up, so it is stood upright on the desk's top, not left leaning past the 45 deg limit
+    desk = box_object(1, "desk", (1.2, 0.6, 0.75), placed(2.0, 2.5), exact_shape=True)
+    upright = placed(2.0, 2.5, 0.75)
+    tilt = rotation_about([np.radians(49.0), 0.0, 0.0], [2.0, 2.5, 0.95])
+    lamp = box_object(2, "table lamp", (0.2, 0.2, 0.4), tilt @ upright, exact_shape=False)
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, InstanceId(1), 1.0),
+        )
+    )
+    objects = {InstanceId(1): desk, InstanceId(2): lamp}
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(stop_after="relations"))
+    final = layout.world_from_asset[InstanceId(2)]
+    assert final[2, 2] / np.linalg.norm(final[:3, 2]) > np.cos(np.radians(0.5))  # upright
+    bottom = lamp.world_vertices(final)[:, 2].min()
+    assert abs(bottom - 0.75) < 1e-6  # on the desk's top
