@@ -30,6 +30,15 @@ SEAT_MESH_TOLERANCE = 0.02
 contact tolerance of the structural metrics) is inside the mesh: its parent's pieces are not cut."""
 
 
+SEAT_RIDGE_SHARE = 1.0 / 3.0
+"""A parent's mesh rising more than SEAT_MESH_TOLERANCE inside a child under at most this share of the child's
+footprint (the hull of its surface there, against the footprint moved in by SEAT_INSET) is a ridge or a bump
+of a generated mesh, not a child sunk into its parent: the child, seen standing on the rest of the face, keeps
+its seat and the parent's pieces are carved (the report keeps the mesh overlap). Cluttered diagnostic seed
+205: a book stack across a 4 cm wide, 2.3 cm high ridge of a generated cabinet's top started 22.6 mm into it
+and slid off."""
+
+
 SEAT_FOOT = 0.02
 """A child's foot: its points within this height (m) of its lowest one; a board under it covers them."""
 
@@ -74,6 +83,21 @@ def mesh_overlap(samples: NDArray, mesh: trimesh.Trimesh | None, ring: NDArray, 
         if bool(mesh.contains(centre[None])[0]):
             rise = max(rise, z_hi - z_lo)
     return rise
+
+
+def raised_share(samples: NDArray, ring: NDArray, z_lo: float, z_hi: float) -> float:
+    """Share of a child's footprint (``ring`` [k, 2] moved in by SEAT_INSET) under which its parent's surface
+    ``samples`` [n, 3] rise more than SEAT_MESH_TOLERANCE above ``z_lo`` (up to ``z_hi``): the area of their
+    convex hull inside it over its area."""
+    inner = Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
+    if inner.is_empty:
+        return 1.0
+    z = samples[:, 2]
+    high = samples[(z > z_lo + SEAT_MESH_TOLERANCE) & (z <= z_hi)]
+    high = high[shapely.contains_xy(inner, high[:, 0], high[:, 1])]
+    if len(high) < 3:
+        return 0.0
+    return float(MultiPoint(high[:, :2]).convex_hull.intersection(inner).area / inner.area)
 
 
 @dataclass(frozen=True)
@@ -121,6 +145,7 @@ def seat_children(
                 mesh = trimesh.Trimesh(parent.world(parent.vertices), parent.faces, process=True)
             rise = mesh_overlap(samples, mesh, ring, bottom, top)
             entry: dict[str, Any] = {"child": child.node, "depth_m": round(depth, 4), "mesh_overlap_m": round(rise, 4)}
+            share = raised_share(samples, ring, bottom, top) if rise < top - bottom else 1.0
             if rise <= SEAT_MESH_TOLERANCE:
                 why = "the parent's convex pieces filled a concavity of its mesh where the child stands"
             elif hollow:
@@ -129,6 +154,12 @@ def seat_children(
                 why = (
                     f"the child stands on the parent's support plane at {board[0]:.3f} m inside its generated mesh "
                     "(an inner shelf the mesh lacks)"
+                )
+            elif share <= SEAT_RIDGE_SHARE:
+                entry["raised_share"] = round(share, 3)
+                why = (
+                    f"the parent's mesh rises {rise:.3f} m above the child's bottom under {share:.0%} of its "
+                    "footprint only (a ridge of the generated mesh; the child was seen standing on the rest)"
                 )
             else:
                 why = (

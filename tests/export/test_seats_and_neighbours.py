@@ -87,6 +87,25 @@ def test_a_child_inside_its_parents_mesh_is_left_unless_a_support_plane_is_at_it
     assert not any(trimesh.Trimesh(v, f).contains(probe)[0] for v, f in pieces)
 
 
+def test_a_ridge_of_the_parents_mesh_under_a_third_of_the_childs_foot_is_carved_and_a_sunk_child_is_not():
+    # a cabinet's generated top at 0.76 m with a 4 cm wide ridge 2.3 cm high across it; a 23 x 33 cm book stack
+    # standing on the top across the ridge (cluttered diagnostic seed 205)
+    top = _box([-0.5, -0.3, 0.0], [0.5, 0.3, 0.76])
+    ridge = _box([-0.02, -0.3, 0.76], [0.02, 0.3, 0.783])
+    cabinet = trimesh.util.concatenate([top, ridge])
+    book = _box([-0.115, -0.165, 0.76], [0.115, 0.165, 0.87])
+    seated = [Seated("obj_2_book_stack", _place(book), [_piece(book)], True)]
+    pieces, seats, _ = seat_children(_place(cabinet), [_piece(top), _piece(ridge)], seated)
+    assert seats[0]["cut"] is True and "ridge" in seats[0]["why"]
+    assert seats[0]["mesh_overlap_m"] == pytest.approx(0.023, abs=2e-3)  # the mesh overlap is still reported
+    assert 0.0 < seats[0]["raised_share"] <= 1.0 / 3.0
+    assert not any(trimesh.Trimesh(v, f).contains([[0.0, 0.0, 0.77]])[0] for v, f in pieces)
+    # a child sunk 5 cm into its parent's whole top stays a layout fault
+    table, sunk, _ = _table_and_book(0.05)
+    _, seats, _ = seat_children(_place(table), [_piece(table)], [Seated("b", _place(sunk), [_piece(sunk)], True)])
+    assert seats[0]["cut"] is False and "layout fault" in seats[0]["why"]
+
+
 def test_a_seat_cut_through_a_thin_top_panel_keeps_a_floor_under_the_child():
     # a desk's hollow shell: a 2.2 cm top panel (0.967-0.989 m) over an empty inside; a lamp whose generated
     # base stands 1.2 cm lower (0.955 m), in a dip of the desk's top, so the panel runs through the lamp
