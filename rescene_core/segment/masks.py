@@ -211,12 +211,18 @@ def split_straddling(
     graph, the region [s'] of each new superpoint and how many points moved."""
     g = sp.graph
     ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+    n_reg = votes.shape[0]
+    # only a region large enough to be kept takes points: a fragment that grew on its neighbours' points
+    # would pass the least size as a segment of its own
+    kept = np.bincount(region, g.count, n_reg) >= cfg.masks_min_segment_points
     border = (ra > 0) & (rb > 0) & (ra != rb) & (g.contacts >= cfg.min_contacts)
     if not border.any():
         return sp, region, 0
-    # (superpoint, candidate region) pairs: each border superpoint and the regions it touches
-    n_reg = votes.shape[0]
-    cand = np.unique(np.r_[g.pairs[border, 0] * n_reg + rb[border], g.pairs[border, 1] * n_reg + ra[border]])
+    # (superpoint, candidate region) pairs: each border superpoint and the kept regions it touches
+    to_b, to_a = border & kept[rb], border & kept[ra]
+    cand = np.unique(np.r_[g.pairs[to_b, 0] * n_reg + rb[to_b], g.pairs[to_a, 1] * n_reg + ra[to_a]])
+    if len(cand) == 0:
+        return sp, region, 0
     cand_sp, cand_reg = cand // n_reg, cand % n_reg
     pts = np.flatnonzero(np.isin(g.label, cand_sp))
     reads = frame_counts(
