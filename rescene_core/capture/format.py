@@ -143,32 +143,41 @@ class FrameStore:
     ``close``); ``dir``: where to put it (default: the system's temporary directory, ``$TMPDIR``).
 
     rgb uint8 [T, H, W, 3], depth float32 [T, H, W] (``has_depth``), masks int32 [T, H, W] (``has_masks``),
-    each a ``StoredFrames``; ``truncate(n)`` keeps the first n frames (frames that could not be read)."""
+    each a ``StoredFrames``; ``truncate(n)`` keeps the first n frames (frames that could not be read);
+    ``new_masks()`` starts an empty mask array for masks made later (a labelled mesh rendered into it)."""
 
     def __init__(
         self, frames: int, height: int, width: int, has_depth: bool, has_masks: bool, dir: str | Path | None = None
     ):
         self.path = Path(tempfile.mkdtemp(prefix="rescene-frames-", dir=dir))
         self._cleanup = weakref.finalize(self, shutil.rmtree, str(self.path), True)
-        group = zarr.open_group(str(self.path), mode="w", zarr_format=3)
+        self._group = zarr.open_group(str(self.path), mode="w", zarr_format=3)
         t, h, w = int(frames), int(height), int(width)
+        self.rgb = self._make("rgb", (t, h, w, 3), np.uint8)
+        self.depth = self._make("depth", (t, h, w), np.float32) if has_depth else None
+        self.masks = self._make("instance", (t, h, w), np.int32) if has_masks else None
 
-        def make(name: str, shape: tuple[int, ...], dtype: Any) -> StoredFrames:
-            # chunk files side by side ("c.5.0.0.0"), not a folder per frame: removing 850 nested folders
-            # took 2.6 s on this machine's disk, the same number of files in one folder 20 ms
-            arr = group.create_array(
-                name,
-                shape=shape,
-                dtype=dtype,
-                chunks=(1, *shape[1:]),
-                compressors=[_codec()],
-                chunk_key_encoding={"name": "default", "separator": "."},
-            )
-            return StoredFrames(arr)
+    def _make(self, name: str, shape: tuple[int, ...], dtype: Any) -> StoredFrames:
+        # chunk files side by side ("c.5.0.0.0"), not a folder per frame: removing 850 nested folders took
+        # 2.6 s on this machine's disk, the same number of files in one folder 20 ms
+        arr = self._group.create_array(
+            name,
+            shape=shape,
+            dtype=dtype,
+            chunks=(1, *shape[1:]),
+            compressors=[_codec()],
+            chunk_key_encoding={"name": "default", "separator": "."},
+        )
+        return StoredFrames(arr)
 
-        self.rgb = make("rgb", (t, h, w, 3), np.uint8)
-        self.depth = make("depth", (t, h, w), np.float32) if has_depth else None
-        self.masks = make("instance", (t, h, w), np.int32) if has_masks else None
+    def new_masks(self) -> StoredFrames:
+        """An empty (all 0) int32 mask array [T, H, W] for masks made after reading (e.g. rendered from a
+        labelled mesh), replacing any there was; fill it with ``masks.array[a:b] = ...``."""
+        t, h, w = self.rgb.shape[:3]
+        if "instance" in self._group:
+            del self._group["instance"]
+        self.masks = self._make("instance", (t, h, w), np.int32)
+        return self.masks
 
     def write(
         self, start: int, rgb: NDArray[np.uint8], depth: NDArray[np.float32] | None, masks: NDArray[np.int32] | None

@@ -57,6 +57,8 @@ def test_frame_map_clears_ids_as_the_writer_reads(tmp_path):
     written = np.asarray(zarr.open_group(str(path), mode="r")["frames/instance"][...])
     expected = np.where(arrays.instance_masks == 2, 0, arrays.instance_masks)
     assert (arrays.instance_masks == 2).any() and np.array_equal(written, expected)
+    fresh = store.new_masks()  # masks made after reading (a mesh annotation's render) replace the read ones
+    assert store.masks is fresh and fresh.shape == arrays.instance_masks.shape and not np.asarray(fresh).any()
 
 
 def test_instance_points_spilled_every_frame_equal_one_spill(tmp_path, monkeypatch):

@@ -30,6 +30,7 @@ import numpy as np
 import trimesh
 from PIL import Image
 
+from rescene_core.capture.format import FRAME_SLAB
 from rescene_core.capture.importers.common import (
     ImportInputError,
     ImportOptions,
@@ -151,7 +152,18 @@ def read_scannet(src: str | Path, opts: ImportOptions, mask_dir: Path | None = N
             face_label = np.where((fl[:, 0] == fl[:, 1]) | (fl[:, 0] == fl[:, 2]), fl[:, 0], fl[:, 1])
             caster = RayCaster(labelled_meshes(verts, faces, face_label))
             h, w = frames.rgb.shape[1:3]
-            frames.masks, stats = render_masks(caster, frames.K, frames.world_from_cam, w, h, frames.depth)
+            if frames.store is None:
+                frames.masks, stats = render_masks(caster, frames.K, frames.world_from_cam, w, h, frames.depth)
+            else:  # rendered a slab of frames at a time into the frame store
+                masks = frames.store.new_masks()
+                stats = Counter()
+                for a in range(0, len(frames.names), FRAME_SLAB):
+                    b = min(a + FRAME_SLAB, len(frames.names))
+                    depth = None if frames.depth is None else np.asarray(frames.depth[a:b])
+                    slab, st = render_masks(caster, frames.K[a:b], frames.world_from_cam[a:b], w, h, depth)
+                    masks.array[a:b] = slab
+                    stats.update(st)
+                frames.masks = masks
             frames.notes.append(f"3D annotation render: {stats['rejected_by_depth']} pixels rejected by the depth test")
 
     probe = by_depth[rgb_files[keep[0]].stem] if opts.resolution == "depth" else rgb_files[keep[0]]
