@@ -31,6 +31,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
+from rescene_core.geometry.open3d_rng import seeded_open3d_rng
+
 
 class AlignConfig(BaseModel):
     """Floor and gravity finding. Lengths in metres, angles in degrees (paper-silent: the capture side)."""
@@ -289,8 +291,7 @@ def _peel_planes(
     centres, cam_x, cam_down = poses[:, :3, 3], poses[:, :3, 0], poses[:, :3, 1]
     rest = np.arange(len(thin))
     out: list[PlaneCandidate] = []
-    o3d.utility.random.seed(cfg.seed)
-    rng = np.random.default_rng(cfg.seed)
+    rng = np.random.default_rng(cfg.seed)  # Open3D's engine is seeded by the caller (seeded_open3d_rng)
     for _ in range(cfg.max_planes):
         if len(rest) < max(3, min_support):
             break
@@ -461,7 +462,11 @@ def estimate_alignment(
         normals = np.asarray(pcd.normals)
     else:
         normals = np.zeros_like(thin)
-    choice, candidates = _choose_floor(_peel_planes(thin, normals, poses, prior, max_tilt, cfg), cfg)
+    # Open3D's RANSAC on one thread with its seed held: on several threads one seed gave different planes
+    # from call to call (the pose of a re-import moved by 4e-05), and a capture that differs misses every cache
+    with seeded_open3d_rng(cfg.seed):
+        peeled = _peel_planes(thin, normals, poses, prior, max_tilt, cfg)
+    choice, candidates = _choose_floor(peeled, cfg)
     warning = ""
     if choice is None:
         # no floor plane: the prior up, and the floor at the 1st percentile of heights along it
