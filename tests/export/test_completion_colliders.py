@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 from rescene_core.colliders.footing import footing
-from rescene_core.colliders.pieces import BOARD_THICKNESS, Placement, clip_to_mesh, cut_seat
+from rescene_core.colliders.pieces import BOARD_THICKNESS, Placement, clip_to_mesh, cut_seat, inside_piece
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.geometry import sim3
 from rescene_core.records import (
@@ -210,6 +210,23 @@ def test_footing_levels_an_uneven_bottom_and_says_when_none_holds():
     lamp = trimesh.util.concatenate([foot, head])
     piece, entry = footing(_place(lamp), [(foot.vertices, foot.faces), (head.vertices, head.faces)])
     assert piece is None and entry["band_m"] is None
+
+
+def test_a_footing_reaching_into_a_neighbour_is_cut_clear_of_it():
+    # the block of the uneven-bottom test; a neighbour's geometry (one point of it) 1 cm inside the block's
+    # band at its back edge: the footing is cut by a vertical plane before it and still holds the centre
+    block = trimesh.creation.box(bounds=[[0, 0, 0.02], [0.5, 0.5, 0.5]])
+    spike = trimesh.creation.box(bounds=[[0, 0, 0], [0.03, 0.03, 0.02]])
+    place = _place(trimesh.util.concatenate([block, spike]))
+    pieces = [(block.vertices, block.faces), (spike.vertices, spike.faces)]
+    neighbour = np.array([[0.25, 0.49, 0.01]])
+    piece, entry = footing(place, pieces, others=neighbour)
+    assert piece is not None and entry["support_margin_after_m"] > 0.01 and "neighbour" in entry["why"]
+    assert not inside_piece(neighbour, piece).any()
+    assert piece[0][:, 1].max() < 0.49 and piece[0][:, 1].max() > 0.45  # a sliver cut off, not the whole back
+    # a neighbour under the centre of mass itself: no plane keeps the centre, so no footing
+    piece, entry = footing(place, pieces, others=np.array([[0.25, 0.25, 0.01]]))
+    assert piece is None and "neighbour" in entry["why"]
 
 
 def test_open_side_needs_a_wall_behind_it_else_faces_the_room():

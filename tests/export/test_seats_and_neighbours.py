@@ -12,7 +12,7 @@ import trimesh
 
 from rescene_core.colliders.edits import completion_pieces
 from rescene_core.colliders.footing import FOOTING_MARGIN, footing
-from rescene_core.colliders.pieces import Placement, carve, placement
+from rescene_core.colliders.pieces import Placement, carve, inside_piece, placement
 from rescene_core.colliders.seats import Seated, seat_children
 from rescene_core.colliders.separate import evidence_points, overlaps, separate
 from rescene_core.export import ExportConfig, ExportObject, export_scene
@@ -342,8 +342,13 @@ def test_a_footing_resists_the_tilt_the_check_calls_stable():
     piece, entry = footing(_place(plant), pieces)
     assert piece is not None and entry["band_fraction_of_height"] == 0.15
     assert entry["support_margin_after_m"] >= entry["tilt_margin_m"] == pytest.approx(0.0143, abs=2e-4)
-    # a neighbour under the body's far end: no band resisting the tilt fits, the first band holding it does
+    # a neighbour under the body's far end: the band resisting the tilt is cut clear of it and still resists
     piece, entry = footing(_place(plant), pieces, others=np.array([[0.18, 0.05, 0.02]]))
+    assert piece is not None and entry["band_fraction_of_height"] == 0.15 and "neighbour" in entry["why"]
+    assert not inside_piece(np.array([[0.18, 0.05, 0.02]]), piece).any()
+    assert entry["support_margin_after_m"] >= entry["tilt_margin_m"]
+    # a neighbour right under the centre: no band resisting the tilt fits, the first band holding it does
+    piece, entry = footing(_place(plant), pieces, others=np.array([[0.1, 0.05, 0.02]]))
     assert piece is not None and entry["band_fraction_of_height"] == 0.02
     assert FOOTING_MARGIN <= entry["support_margin_after_m"] < entry["tilt_margin_m"]
 
