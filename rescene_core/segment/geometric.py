@@ -42,6 +42,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from rescene_core.geometry.open3d_rng import seeded_open3d_rng
 from rescene_core.render.raycast import RayCaster
 from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.labels import zero_shot_labels
@@ -278,7 +279,6 @@ def _structure(
     """Structure label per vertex (0 none, 1 floor, 2.. walls, then ceiling) and the planes found."""
     import open3d as o3d
 
-    o3d.utility.random.seed(cfg.seed)
     labels = np.zeros(len(verts), np.int64)
     labels[verts[:, 2] < cfg.floor_band] = 1
     planes: list[dict[str, Any]] = [{"kind": "floor", "id": 1, "vertices": int((labels == 1).sum())}]
@@ -938,18 +938,21 @@ def fuse_scan(
     """Steps 1-3 shared by both front ends: mesh vertices [v, 3], faces [f, 3], structure label per vertex,
     the planes, the superpoints and the seconds each step took."""
     seconds: dict[str, float] = {}
-    t = time.perf_counter()
-    verts, faces, normals, colours = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
-    if len(faces) == 0:
-        raise SegmentError("TSDF fusion produced no surface (no valid depth in range; check --depth-scale)")
-    seconds["tsdf"] = time.perf_counter() - t
-    t = time.perf_counter()
-    cams = np.asarray(world_from_cam)[:, :3, 3]
-    struct, planes = _structure(verts, normals, cams, cfg)
-    seconds["structure"] = time.perf_counter() - t
-    t = time.perf_counter()
-    sp = scan_points(verts, normals, colours, struct, planes, cfg, fh_k)
-    seconds["superpoints"] = time.perf_counter() - t
+    # Open3D on one thread, its engine seeded: on several, the TSDF's surface and the RANSAC planes differ
+    # from run to run (a wall's offset by 0.5 mm, a few superpoints more or less, objects matched or not)
+    with seeded_open3d_rng(cfg.seed):
+        t = time.perf_counter()
+        verts, faces, normals, colours = tsdf_mesh(rgb, depth, K, world_from_cam, cfg)
+        if len(faces) == 0:
+            raise SegmentError("TSDF fusion produced no surface (no valid depth in range; check --depth-scale)")
+        seconds["tsdf"] = time.perf_counter() - t
+        t = time.perf_counter()
+        cams = np.asarray(world_from_cam)[:, :3, 3]
+        struct, planes = _structure(verts, normals, cams, cfg)
+        seconds["structure"] = time.perf_counter() - t
+        t = time.perf_counter()
+        sp = scan_points(verts, normals, colours, struct, planes, cfg, fh_k)
+        seconds["superpoints"] = time.perf_counter() - t
     return verts, faces, struct, planes, sp, seconds
 
 
