@@ -214,6 +214,4 @@ def test_the_same_points_give_the_same_alignment_every_call():
     """The floor RANSAC runs seeded on one Open3D thread: a re-import of a scan is the same capture (on
     several threads one seed gave different planes from call to call)."""
     pts, cams, _ = egocentric_points(40, 30, "patches", 7)
-    first = estimate_alignment(pts, cams).to_json()
-    for _ in range(2):
-        assert estimate_alignment(pts, cams).to_json() == first
+    assert estimate_alignment(pts, cams).to_json() == estimate_alignment(pts, cams).to_json()
