@@ -26,6 +26,7 @@ import trimesh
 from numpy.typing import NDArray
 from PIL import Image
 from pydantic import BaseModel, ConfigDict, Field
+from shapely.geometry import MultiPoint
 
 from rescene_core.config import SceneGraphConfig, VlmClientConfig
 from rescene_core.evaluation.rendering import scene_render_meshes
@@ -227,8 +228,12 @@ def scene_views(
     if floor is not None:
         top = float(floor.bounds[1][2])
         xy = np.asarray(floor.vertices)[:, :2]
-        hull = trimesh.convex.convex_hull(np.column_stack([xy, np.zeros(len(xy))])) if len(xy) >= 3 else None
-        corners = np.unique(np.round(xy, 4), axis=0) if hull is None else np.asarray(hull.vertices)[:, :2]
+        # the floor's outline in plan (a 3-D hull of points on one plane is degenerate: its volume divides by 0)
+        hull = MultiPoint(xy).convex_hull if len(xy) >= 3 else None
+        if hull is None or hull.geom_type != "Polygon":
+            corners = np.unique(np.round(xy, 4), axis=0)
+        else:
+            corners = np.asarray(hull.exterior.coords, np.float64)[:-1]
     else:
         verts = np.concatenate([m.vertices for _, m in placed.values()])
         top = float(verts[:, 2].min())
