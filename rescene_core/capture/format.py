@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import tempfile
 import weakref
 from collections.abc import Callable
@@ -136,6 +137,40 @@ def iter_slabs(frames: FrameData, slab: int = FRAME_SLAB) -> Any:
         yield a, np.asarray(frames[a : min(a + slab, n)])
 
 
+STORE_PREFIX = "rescene-frames-"
+STORE_OWNER = "owner"
+"""The file in a frame store naming the host and process that made it ("HOST PID")."""
+
+
+def remove_orphaned_stores(dir: str | Path | None = None) -> list[Path]:
+    """Remove the frame stores in ``dir`` (default ``$TMPDIR``) whose import was killed: made on this host by
+    a process that is gone (an import stopped by SIGKILL or the machine's OOM killer cannot remove its own).
+    Stores of live processes, of other hosts and without an owner file are left. Returns those removed."""
+    root = Path(dir) if dir is not None else Path(tempfile.gettempdir())
+    host, removed = socket.gethostname(), []
+    for store in root.glob(f"{STORE_PREFIX}*"):
+        try:
+            owner_host, pid = (store / STORE_OWNER).read_text().split()
+            if owner_host != host or _alive(int(pid)):
+                continue
+        except (OSError, ValueError):
+            continue
+        shutil.rmtree(store, ignore_errors=True)
+        removed.append(store)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process with this id runs on this host (one of another user's counts as running)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 class FrameStore:
     """Frames written into a temporary zarr group as they are read, one chunk per frame (the capture's own
     chunks and codec), so an importer holds a few frames at a time; the capture writer takes the encoded
@@ -149,8 +184,10 @@ class FrameStore:
     def __init__(
         self, frames: int, height: int, width: int, has_depth: bool, has_masks: bool, dir: str | Path | None = None
     ):
-        self.path = Path(tempfile.mkdtemp(prefix="rescene-frames-", dir=dir))
+        remove_orphaned_stores(dir)
+        self.path = Path(tempfile.mkdtemp(prefix=STORE_PREFIX, dir=dir))
         self._cleanup = weakref.finalize(self, shutil.rmtree, str(self.path), True)
+        (self.path / STORE_OWNER).write_text(f"{socket.gethostname()} {os.getpid()}\n")
         self._group = zarr.open_group(str(self.path), mode="w", zarr_format=3)
         t, h, w = int(frames), int(height), int(width)
         self.rgb = self._make("rgb", (t, h, w, 3), np.uint8)

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import socket
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -12,7 +15,7 @@ import zarr
 
 from rescene_core.capture import depth_points
 from rescene_core.capture.depth_points import instance_points
-from rescene_core.capture.format import FrameMap, FrameStore, write_capture
+from rescene_core.capture.format import STORE_OWNER, FrameMap, FrameStore, write_capture
 from tests.capture.toy import toy_capture_arrays
 
 
@@ -115,3 +118,18 @@ def test_scene_points_streamed_keep_the_floor(tmp_path, monkeypatch):
     streamed = depth_points.scene_points(arrays.depth, arrays.K, arrays.world_from_cam, spill_dir=tmp_path)
     key = np.lexsort(whole.T[::-1])
     np.testing.assert_allclose(whole[key], streamed[np.lexsort(streamed.T[::-1])], rtol=0, atol=1e-9)
+
+
+def test_a_store_left_by_a_killed_import_is_removed_by_the_next_one(tmp_path):
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    orphan = tmp_path / "rescene-frames-orphan"
+    orphan.mkdir()
+    (orphan / STORE_OWNER).write_text(f"{socket.gethostname()} {int(gone.stdout)}\n")
+    live = tmp_path / "rescene-frames-live"
+    live.mkdir()
+    (live / STORE_OWNER).write_text(f"{socket.gethostname()} {os.getpid()}\n")
+    elsewhere = tmp_path / "rescene-frames-elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / STORE_OWNER).write_text(f"another-host {int(gone.stdout)}\n")
+    store = FrameStore(2, 4, 4, False, False, dir=tmp_path)
+    assert not orphan.exists() and live.exists() and elsewhere.exists() and store.path.exists()
