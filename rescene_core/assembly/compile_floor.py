@@ -63,7 +63,7 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
     pose = state.pose(child)
     pivot = level_pivot(state, child)
     info: dict[str, Any] = {}
-    level, tilt = levelling(state, child, pose)
+    level, tilt = levelling(state, child, pose, pivot)
     correction = level
     info["tilt_removed_deg"] = float(np.degrees(tilt))
     if cfg.floor_yaw_align:

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from rescene_core.assembly.evidence import levelling, points_in_box
+from rescene_core.assembly.evidence import level_pivot, levelling, points_in_box
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -343,7 +343,7 @@ def compile_support(
         return None, {"reason": f"parent {parent} has no upward-facing support face"}
     obj = state.objects[child]
     pose = state.pose(child)
-    correction, tilt = levelling(state, child, pose)
+    correction, tilt = levelling(state, child, pose, level_pivot(state, child))
     moved = apply(correction @ pose, obj.vertices)
     bottom = float(room.floor_distance(moved).min())
     # the level is chosen by where the child was seen standing, not where its parent's correction took it

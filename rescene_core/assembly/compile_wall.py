@@ -176,7 +176,7 @@ def compile_wall(
     pivot = level_pivot(state, child)
     # nothing hangs on a wall on its side: a generated asset past the exact shapes' limit is registration rolling
     # a box-like shape about its long axis (a wall shelf 48 deg)
-    correction, tilt = levelling(state, child, pose)
+    correction, tilt = levelling(state, child, pose, pivot)
     if plan.axis >= 0:  # exact shape: the asset axis is the object's back axis
         axis = plan.sign * (correction @ pose)[:3, plan.axis]
         yaw = signed_yaw(axis, -wall.normal, room.up)

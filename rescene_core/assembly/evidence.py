@@ -294,8 +294,11 @@ def level_pivot(state: LayoutState, i: InstanceId) -> NDArray[np.float64]:
     return state.centre(i)
 
 
-def levelling(state: LayoutState, i: InstanceId, pose: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
-    """Rotation [4, 4] levelling object i at ``pose`` about ``level_pivot``, and the tilt it removes (rad).
+def levelling(
+    state: LayoutState, i: InstanceId, pose: NDArray[np.float64], pivot: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """Rotation [4, 4] levelling object i at ``pose`` about ``pivot`` (world [3], ``level_pivot``), and the
+    tilt it removes (rad).
 
     A generated asset's frame is z-up (both backends, and the registration's rotation gate measures the tilt
     of that axis), so its +z is turned onto the floor normal whatever the tilt: registration passes a pose up
@@ -303,7 +306,7 @@ def levelling(state: LayoutState, i: InstanceId, pose: NDArray[np.float64]) -> t
     shape's limit allows, fell off its desk. An exact shape's frame is the object's own (a box may lie on its
     side on purpose): its axis nearest the floor normal is levelled when tilted at most
     ``max_level_tilt_deg``."""
-    obj, up, pivot = state.objects[i], state.room.up, level_pivot(state, i)
+    obj, up = state.objects[i], state.room.up
     if obj.exact_shape:
         return level_correction(pose, up, pivot, np.radians(state.config.max_level_tilt_deg))
     return level_correction(pose, up, pivot, np.pi, candidates=(2,))

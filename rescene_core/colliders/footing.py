@@ -18,6 +18,7 @@ from rescene_core.colliders.pieces import (
     Piece,
     Placement,
     centre_of_mass,
+    horizontal_directions,
     hull_piece,
     inside_piece,
     slice_piece,
@@ -72,8 +73,7 @@ def _clear_of(
     margin m), or None when no plane does. A monitor's band reached 5 mm past its mesh into one point of what
     stood behind it (cluttered diagnostic seed 205), and it tipped over with no footing."""
     best: tuple[Piece, float] | None = None
-    angles = np.arange(HORIZONTAL_DIRECTIONS) * 2 * np.pi / HORIZONTAL_DIRECTIONS
-    for d in np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)]:
+    for d in horizontal_directions(HORIZONTAL_DIRECTIONS):
         level = float((intruding @ d).min()) - NEIGHBOUR_CLEARANCE
         if float(np.r_[com_xy, 0.0] @ d) > level:
             continue  # the plane would leave the centre of mass outside
@@ -134,17 +134,17 @@ def footing(
         piece = hull_piece(place.body(np.vstack([low, flat])))
         if piece is None:
             continue
-        cleared_of = 0
+        cleared = False
         if others is not None and len(others):
             world = (place.world(piece[0]), piece[1])
             intruding = others[inside_piece(others, world)]
             if len(intruding):
-                cleared = _clear_of(world, intruding, others, com_w[:2], zmin)
-                if cleared is None:
+                clear = _clear_of(world, intruding, others, com_w[:2], zmin)
+                if clear is None:
                     blocked = True
                     continue
-                piece, held = (place.body(cleared[0][0]), cleared[0][1]), cleared[1]
-                cleared_of = len(intruding)
+                (kept, faces), held = clear
+                piece, cleared = (place.body(kept), faces), True
         entry = {
             "band_m": round(band, 4),
             "band_fraction_of_height": frac,
@@ -153,7 +153,7 @@ def footing(
             "tilt_margin_m": round(float(tilt_margin), 4),
             "why": "its centre of mass (with what rests on it) is not over the points it stands on (an uneven "
             "generated bottom): the hull of its lowest band, down to its lowest point, is added"
-            + (", cut clear of a neighbour it reached into" if cleared_of else ""),
+            + (", cut clear of a neighbour it reached into" if cleared else ""),
         }
         if held >= tilt_margin:
             return piece, entry

@@ -107,14 +107,19 @@ def slice_piece(piece: Piece, normal: NDArray, origin: NDArray) -> Piece | None:
         return piece
     if (d <= 1e-9).all():
         return None
-    mesh = trimesh.Trimesh(v, f, process=False)
-    edges = mesh.edges_unique
-    a, b = v[edges[:, 0]], v[edges[:, 1]]
+    return hull_piece(np.vstack([v[d >= 0], edge_crossings(piece, d)]))
+
+
+def edge_crossings(piece: Piece, d: NDArray) -> NDArray[np.float64]:
+    """Points [k, 3] where the edges of a piece cross the plane of the signed distances ``d`` [v] of its
+    vertices (from > 0 to <= 0)."""
+    v, f = piece
+    edges = trimesh.Trimesh(v, f, process=False).edges_unique
     da, db = d[edges[:, 0]], d[edges[:, 1]]
     cross = (da > 0) != (db > 0)
+    a, b = v[edges[cross, 0]], v[edges[cross, 1]]
     t = da[cross] / (da[cross] - db[cross])
-    points = np.vstack([v[d >= 0], a[cross] + t[:, None] * (b[cross] - a[cross])])
-    return hull_piece(points)
+    return np.asarray(a + t[:, None] * (b - a), np.float64)
 
 
 def footprint_ring(points_xy: NDArray, grow: float) -> NDArray[np.float64]:
@@ -178,6 +183,12 @@ def carve(pieces: list[Piece], ring: NDArray, z_lo: float, z_hi: float) -> tuple
     return out, removed
 
 
+def horizontal_directions(n: int) -> NDArray[np.float64]:
+    """``n`` horizontal world unit vectors [n, 3], evenly spaced from +x."""
+    angles = np.arange(n) * 2 * np.pi / n
+    return np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)]
+
+
 def cut_seat(pieces: list[Piece], box_lo: NDArray, box_hi: NDArray, level: float) -> tuple[list[Piece], float]:
     """Pieces (world-oriented frame: z up) with everything above ``level`` inside the vertical column over
     the xy box [box_lo, box_hi] removed; returns the pieces and the depth removed (m)."""
@@ -191,8 +202,7 @@ def clip_to_mesh(place: Placement, pieces: list[Piece], footprint_only: bool = F
     reaches past the mesh it approximates in those directions. ``footprint_only``: along the horizontal
     world directions only (a completion under or inside the mesh's footprint). Returns the pieces and the
     largest distance (m) a piece reached past them."""
-    angles = np.arange(CLIP_DIRECTIONS) * 2 * np.pi / CLIP_DIRECTIONS
-    horizontal = np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)]
+    horizontal = horizontal_directions(CLIP_DIRECTIONS)
     if footprint_only:
         dirs = horizontal @ place.rotation  # body frame
     else:

@@ -64,20 +64,30 @@ def _surface_samples(place: Placement) -> NDArray[np.float64]:
     return np.vstack([mesh.vertices, mesh.triangles_center, mesh.sample(4000, seed=0)])
 
 
+def _inner(ring: NDArray) -> Polygon:
+    """A child's footprint ``ring`` [k, 2] with its sides moved in by SEAT_INSET (a face touching its side is
+    not inside it)."""
+    return Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
+
+
+def _samples_inside(samples: NDArray, inner: Polygon, z_lo: float, z_hi: float) -> NDArray:
+    """The ``samples`` [n, 3] over ``inner`` (not empty) with z in (z_lo, z_hi] [m, 3]."""
+    z = samples[:, 2]
+    near = samples[(z > z_lo) & (z <= z_hi)]
+    return near[shapely.contains_xy(inner, near[:, 0], near[:, 1])]
+
+
 def mesh_overlap(samples: NDArray, mesh: trimesh.Trimesh | None, ring: NDArray, z_lo: float, z_hi: float) -> float:
     """How high (m) a parent's mesh rises above ``z_lo`` inside a child's prism (``ring`` [k, 2], up to
     ``z_hi``, its sides moved in by ``SEAT_INSET``): the highest of its surface ``samples`` there, the whole
     height when the (closed) ``mesh`` contains the prism's centre; 0 when the mesh is not there."""
 
-    inner = Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
+    inner = _inner(ring)
     rise = 0.0
     if not inner.is_empty:
-        z = samples[:, 2]
-        near = (z > z_lo) & (z <= z_hi)
-        sel = near.copy()
-        sel[near] = shapely.contains_xy(inner, samples[near, 0], samples[near, 1])
-        if sel.any():
-            rise = float(z[sel].max()) - z_lo
+        inside = _samples_inside(samples, inner, z_lo, z_hi)
+        if len(inside):
+            rise = float(inside[:, 2].max()) - z_lo
     if mesh is not None and mesh.is_watertight:
         centre = np.r_[np.asarray(Polygon(ring).centroid.coords)[0], 0.5 * (z_lo + z_hi)]
         if bool(mesh.contains(centre[None])[0]):
@@ -89,12 +99,10 @@ def raised_share(samples: NDArray, ring: NDArray, z_lo: float, z_hi: float) -> f
     """Share of a child's footprint (``ring`` [k, 2] moved in by SEAT_INSET) under which its parent's surface
     ``samples`` [n, 3] rise more than SEAT_MESH_TOLERANCE above ``z_lo`` (up to ``z_hi``): the area of their
     convex hull inside it over its area."""
-    inner = Polygon(ring).buffer(-SEAT_INSET, join_style="mitre")
+    inner = _inner(ring)
     if inner.is_empty:
         return 1.0
-    z = samples[:, 2]
-    high = samples[(z > z_lo + SEAT_MESH_TOLERANCE) & (z <= z_hi)]
-    high = high[shapely.contains_xy(inner, high[:, 0], high[:, 1])]
+    high = _samples_inside(samples, inner, z_lo + SEAT_MESH_TOLERANCE, z_hi)
     if len(high) < 3:
         return 0.0
     return float(MultiPoint(high[:, :2]).convex_hull.intersection(inner).area / inner.area)
@@ -145,7 +153,6 @@ def seat_children(
                 mesh = trimesh.Trimesh(parent.world(parent.vertices), parent.faces, process=True)
             rise = mesh_overlap(samples, mesh, ring, bottom, top)
             entry: dict[str, Any] = {"child": child.node, "depth_m": round(depth, 4), "mesh_overlap_m": round(rise, 4)}
-            share = raised_share(samples, ring, bottom, top) if rise < top - bottom else 1.0
             if rise <= SEAT_MESH_TOLERANCE:
                 why = "the parent's convex pieces filled a concavity of its mesh where the child stands"
             elif hollow:
@@ -155,7 +162,8 @@ def seat_children(
                     f"the child stands on the parent's support plane at {board[0]:.3f} m inside its generated mesh "
                     "(an inner shelf the mesh lacks)"
                 )
-            elif share <= SEAT_RIDGE_SHARE:
+            # a mesh containing the prism's centre rises through the whole child: not a ridge
+            elif rise < top - bottom and (share := raised_share(samples, ring, bottom, top)) <= SEAT_RIDGE_SHARE:
                 entry["raised_share"] = round(share, 3)
                 why = (
                     f"the parent's mesh rises {rise:.3f} m above the child's bottom under {share:.0%} of its "

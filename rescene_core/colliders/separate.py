@@ -45,6 +45,7 @@ from rescene_core.colliders.pieces import (
     carve,
     face_planes,
     footprint_ring,
+    horizontal_directions,
     inside_piece,
     is_solid,
     slice_piece,
@@ -70,8 +71,7 @@ MAX_SUBTRACT_PLANES = 12
 
 
 def _directions() -> NDArray[np.float64]:
-    angles = np.arange(HORIZONTAL_DIRECTIONS) * 2 * np.pi / HORIZONTAL_DIRECTIONS
-    return np.vstack([[[0, 0, 1.0], [0, 0, -1.0]], np.c_[np.cos(angles), np.sin(angles), np.zeros_like(angles)]])
+    return np.vstack([[[0, 0, 1.0], [0, 0, -1.0]], horizontal_directions(HORIZONTAL_DIRECTIONS)])
 
 
 def evidence_points(place: Placement, extra: Iterable[Piece] = ()) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

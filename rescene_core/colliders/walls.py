@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.colliders.pieces import Piece, Placement, is_solid, slice_piece
+from rescene_core.colliders.pieces import Piece, Placement, edge_crossings, is_solid, slice_piece
 from rescene_core.geometry.room import wall_extent
 from rescene_core.records import RoomShell, WallPlane
 
@@ -77,7 +77,8 @@ def clear_of_walls(
                 continue
             # where the piece's volume is behind the plane: its vertices there and where its edges cross the plane
             # (a piece reaching past the end of a wall's box crosses the box's end edge between its vertices)
-            along = (_behind_plane(world, piece[1], signed)[:, :2] - start) @ tangent
+            behind = np.vstack([world[signed < 0], edge_crossings((world, piece[1]), -signed)])
+            along = (behind[:, :2] - start) @ tangent
             depth = float(-signed.min())
             if depth > limit or along.max() < 0 or along.min() > length:
                 continue  # a layout fault, or the plane beyond the wall's box (another wing of the room)
@@ -87,17 +88,6 @@ def clear_of_walls(
             out[k] = (place.body(kept[0]), kept[1])
             cut[str(wall.id)] = round(max(cut.get(str(wall.id), 0.0), depth), 4)
     return out, cut
-
-
-def _behind_plane(world: NDArray[np.float64], faces: NDArray, signed: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Points spanning a convex piece's part behind a plane: its vertices with ``signed`` distance < 0 and the
-    points where its edges cross the plane [n, 3] (world)."""
-    edges = np.unique(np.sort(np.asarray(faces)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    da, db = signed[edges[:, 0]], signed[edges[:, 1]]
-    cross = (da < 0) != (db < 0)
-    t = da[cross] / (da[cross] - db[cross])
-    a, b = world[edges[cross, 0]], world[edges[cross, 1]]
-    return np.vstack([world[signed < 0], a + t[:, None] * (b - a)])
 
 
 def walls_report(cut: dict[str, float]) -> dict[str, Any] | None:

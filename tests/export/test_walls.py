@@ -60,13 +60,18 @@ def test_a_piece_the_export_added_is_cut_at_the_wall_whatever_its_depth():
     assert place.world(cut[1][0])[:, 1].min() == pytest.approx(-2.0, abs=1e-9)
 
 
-def test_a_wall_plane_beyond_its_segment_cuts_nothing():
-    short = RoomShell(
+def short_wall_shell() -> RoomShell:
+    """A room whose one wall (y = -2, facing +y) spans x from -2 to -1 only."""
+    return RoomShell(
         floor=CORNER_SHELL.floor,
         walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (-1.0, -2.0))),),
         floor_polygon=((-2.0, -2.0), (-1.0, -2.0), (-1.0, 2.0), (-2.0, 2.0)),
         ceiling_height=2.5,
     )
+
+
+def test_a_wall_plane_beyond_its_segment_cuts_nothing():
+    short = short_wall_shell()
     obj = lamp(0.008)
     obj = ExportObject(1, obj.label, obj.vertices, obj.faces, sim3.sim3_from_parts(1.0, np.eye(3), [0.5, -2.008, 0]))
     box = trimesh.creation.box(bounds=[[0.0, 0.0, 0.0], [0.4, 0.4, 1.6]])
@@ -78,12 +83,7 @@ def test_a_wall_plane_beyond_its_segment_cuts_nothing():
 def test_a_piece_crossing_the_end_of_a_walls_box_between_its_vertices_is_cut():
     # a wedge whose vertices behind the plane all lie past the segment's end (x > -1): its edge still crosses
     # the plane at x = -1.0125, inside the wall's box (a wardrobe's piece in a corner the wall box stops short of)
-    short = RoomShell(
-        floor=CORNER_SHELL.floor,
-        walls=(WallPlane(0, Plane((0.0, 1.0, 0.0), 2.0), ((-2.0, -2.0), (-1.0, -2.0))),),
-        floor_polygon=((-2.0, -2.0), (-1.0, -2.0), (-1.0, 2.0), (-2.0, 2.0)),
-        ceiling_height=2.5,
-    )
+    short = short_wall_shell()
     corners = np.array([[-1.2, -1.95], [-0.9, -2.03], [-1.2, -1.8], [-0.9, -1.8]])
     wedge = trimesh.convex.convex_hull(np.vstack([np.c_[corners, np.zeros(4)], np.c_[corners, np.ones(4)]]))
     obj = ExportObject(1, "wardrobe", wedge.vertices, wedge.faces, np.eye(4))
