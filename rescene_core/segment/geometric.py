@@ -186,6 +186,14 @@ class SegmentConfig(BaseModel):
     """... fewest frames in which two touching superpoints both vote before they can join..."""
     consensus_fraction: float = 0.6
     """... and the share of those frames that must give both the same id."""
+    consensus_gap: float = 0.25
+    """... regions whose points come this close (m) without touching through masked superpoints (a lamp's
+    shade and base, its 1-2 cm pole left unmasked by eroded mask outlines) can still join by consensus..."""
+    gap_min_frames: int = 5
+    """... when both cast a confident vote in at least this many frames..."""
+    gap_consensus_fraction: float = 0.8
+    """... and this share of those frames give both the same id (two separate objects share an id only
+    where a 2D segmenter merges them in an image)."""
     unmasked_share: float = 0.5
     """... a superpoint whose vote is no mask (id 0) in this share of the frames it votes in belongs to no
     instance."""

@@ -6,7 +6,9 @@ TSDF, structure planes, superpoints). Each superpoint reads its id in every fram
 agglomeratively, the best agreeing pair first, while among the frames in which both cast a confident vote
 most give them the same id. A region votes with all its points, so a superpoint straddling two objects
 cannot bridge them; the points of such a superpoint that read a touching region's id in most frames are
-then split off to that region (``split_straddling``). Ids need not agree across frames, so SAM 2 automatic
+then split off to that region (``split_straddling``). Regions parted by a gap of unmasked surface (a lamp's
+shade and base, its thin pole left unmasked by eroded outlines) join when nearly every frame that sees both
+gives them one id (``bridge_gaps``). Ids need not agree across frames, so SAM 2 automatic
 masks or CropFormer's can be used as they are written. A superpoint most frames leave unmasked (id 0), or
 that no frame sees, belongs to no instance. Regions are then filtered as in the geometric front end; a
 consensus region lying on a wall and hanging clear of the floor and ceiling is a flush object (a picture,
@@ -22,6 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.geometric import (
@@ -164,6 +167,100 @@ def consensus_regions(
     return region, stats
 
 
+def _region_gaps(sp: ScanPoints, region: NDArray[np.int64], gap: float) -> dict[int, set[int]]:
+    """Regions [s] (0: none) whose points come within ``gap`` (m) of each other: {region: its near regions}.
+    Pairs are tested only when their bounds, grown by ``gap``, overlap; then by a k-d tree of one region's
+    points (scipy's ``cKDTree``)."""
+    point_region = region[sp.graph.label]
+    order = np.argsort(point_region, kind="stable")
+    n = int(region.max(initial=0)) + 1
+    bounds = np.searchsorted(point_region[order], np.arange(n + 1))
+    pts = {r: sp.points[order[bounds[r] : bounds[r + 1]]] for r in range(1, n) if bounds[r + 1] > bounds[r]}
+    lo = {r: p.min(axis=0) for r, p in pts.items()}
+    hi = {r: p.max(axis=0) for r, p in pts.items()}
+    trees: dict[int, cKDTree] = {}
+    near: dict[int, set[int]] = {}
+    ids = sorted(pts)
+    for k, a in enumerate(ids):
+        for b in ids[k + 1 :]:
+            if np.any(lo[a] - gap > hi[b]) or np.any(lo[b] - gap > hi[a]):
+                continue
+            small, big = (a, b) if len(pts[a]) < len(pts[b]) else (b, a)
+            if big not in trees:
+                trees[big] = cKDTree(pts[big])
+            if np.isfinite(trees[big].query(pts[small], k=1, distance_upper_bound=gap)[0]).any():
+                near.setdefault(a, set()).add(b)
+                near.setdefault(b, set()).add(a)
+    return near
+
+
+def bridge_gaps(
+    sp: ScanPoints, region: NDArray[np.int64], counts: FrameCounts, cfg: SegmentConfig
+) -> tuple[NDArray[np.int64], int]:
+    """Regions [s] (0: none) parted by a gap of unmasked or unfused surface join when the masks of most
+    frames that see both give them one id: a table lamp's shade and base, whose 1-2 cm pole an eroded
+    mask outline leaves unmasked in most frames, a floor lamp's shade and pole, a table top and a leg the
+    fusion cut off. Regions whose points come within ``consensus_gap`` (m) are merged agglomeratively, the
+    best agreeing pair first, while among at least ``gap_min_frames`` frames in which both cast a confident
+    vote, ``gap_consensus_fraction`` give them the same id: stricter than the consensus of touching
+    superpoints, since a 2D segmenter gives two separate objects one id only where they meet in an image.
+    One of the two must be large enough to be kept (``masks_min_segment_points``): two fragments too small
+    to be kept, joined, would pass the least size as a fragment still. ``counts``: the ids the points of each superpoint of ``sp`` read. Returns the regions and how many
+    joined."""
+    seen, share = cfg.vote_min_points, cfg.vote_min_share
+    r = region[counts.sp]
+    reads: dict[int, dict[int, dict[int, int]]] = {}
+    for r_, t, i, c in zip(r.tolist(), counts.frame.tolist(), counts.mask_id.tolist(), counts.count.tolist(),
+                           strict=True):  # fmt: skip
+        if r_ > 0:
+            frame = reads.setdefault(r_, {}).setdefault(t, {})
+            frame[i] = frame.get(i, 0) + c
+    state = {r_: _RegionVotes(x, seen, share) for r_, x in reads.items()}
+    neighbours = {a: {b for b in nb if b in state} for a, nb in _region_gaps(sp, region, cfg.consensus_gap).items()}
+    neighbours = {a: nb for a, nb in neighbours.items() if a in state}
+    version = dict.fromkeys(state, 0)
+    heap: list[tuple[float, int, int, int, int, int]] = []
+
+    n = int(region.max(initial=0)) + 1
+    size = np.bincount(region, sp.graph.count, n)
+
+    def push(a: int, b: int) -> None:
+        if max(size[a], size[b]) < cfg.masks_min_segment_points:
+            return  # two fragments too small to be kept would make a fragment large enough to be kept
+        both, same = _agreement(state[a], state[b])
+        if both >= cfg.gap_min_frames and same >= cfg.gap_consensus_fraction * both:
+            heapq.heappush(heap, (-same / both, -both, a, b, version[a], version[b]))
+
+    for a, nb in neighbours.items():
+        for b in nb:
+            if a < b:
+                push(a, b)
+    parent = np.arange(n)
+    joined = 0
+    while heap:
+        _, _, a, b, va, vb = heapq.heappop(heap)
+        if version.get(a) != va or version.get(b) != vb:
+            continue
+        state[a] = state[a].merged(state.pop(b), seen, share)
+        del version[b]
+        version[a] += 1
+        parent[b] = a
+        size[a] += size[b]
+        joined += 1
+        nb = (neighbours.pop(b, set()) | neighbours.get(a, set())) - {a, b}
+        neighbours[a] = nb
+        for c in nb:
+            neighbours[c].discard(b)
+            neighbours[c].add(a)
+            push(a, c)
+    for _ in range(64):
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            break
+        parent = nxt
+    return parent[region], joined
+
+
 def region_votes(
     counts: FrameCounts, region: NDArray[np.int64], n_frames: int, cfg: SegmentConfig
 ) -> NDArray[np.int64]:
@@ -304,6 +401,12 @@ def segment_masks(
     sp, region, stats["points_moved_to_a_touching_region"] = split_straddling(
         sp, region, votes, frame_masks, K, world_from_cam, depth, cfg
     )
+    pick = vote_sample(sp, cfg.vote_points, cfg.seed)
+    counts = frame_counts(
+        sp.points[pick], sp.graph.label[pick], frame_masks, K, world_from_cam, depth,
+        cfg.depth_abs_tolerance, cfg.depth_rel_tolerance,
+    )  # fmt: skip
+    region, stats["joined_across_gaps"] = bridge_gaps(sp, region, counts, cfg)
     which, _ = wall_superpoints(sp, planes, cfg)
     # consensus regions are no fragments of geometry: they keep the smaller least size
     small = cfg.model_copy(update={"min_segment_points": cfg.masks_min_segment_points})

@@ -171,3 +171,33 @@ def test_a_superpoint_the_masks_cut_is_split_between_its_regions():
     assert moved == strip.sum() > 0
     assert (point_region[strip] == 2).all() and (point_region[points[:, 0] < 0] == 1).all()
     assert (point_region[points[:, 0] > 0.1] == 2).all() and sp2.graph.size == 3
+
+
+def test_regions_parted_by_an_unmasked_gap_join_when_the_views_agree():
+    from types import SimpleNamespace
+
+    from rescene_core.segment.geometric import SegmentConfig
+    from rescene_core.segment.lift import FrameCounts
+    from rescene_core.segment.masks import bridge_gaps
+
+    # four 20 cm blobs of 2.5 cm points along x: a lamp's shade (0) and base (1) 10 cm apart (the pole
+    # between them unmasked), a nightstand (2) 10 cm beyond the base that a damaged mask gives the lamp's
+    # id in 2 of 8 frames, and a second lamp (3) 1.5 m away that reads the first one's id in every frame
+    # (no segmenter does that, but only nearness may let regions join across a gap)
+    blob = np.stack(np.meshgrid(*[np.arange(0.0, 0.2, 0.025)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    starts = [0.0, 0.3, 0.6, 2.0]
+    points = np.concatenate([blob + [x, 0.0, 0.0] for x in starts])
+    label = np.repeat(np.arange(4), len(blob))
+    rows = []
+    for t in range(8):
+        lamp, stand = 10 + t, 50 + t  # ids drawn anew in every frame
+        rows += [(0, t, lamp, 30), (1, t, lamp, 30), (3, t, lamp, 30)]
+        rows.append((2, t, lamp if t < 2 else stand, 30))
+    counts = FrameCounts(*(np.array(c, np.int64) for c in zip(*sorted(rows), strict=True)))
+    sp = SimpleNamespace(points=points, graph=SimpleNamespace(label=label, count=np.bincount(label)))
+    region, joined = bridge_gaps(sp, np.array([1, 2, 3, 4]), counts, SegmentConfig())
+    assert joined == 1 and region[0] == region[1]
+    assert len({int(region[0]), int(region[2]), int(region[3])}) == 3
+    # five frames at least: the same two blobs seen in only four do not join
+    few = FrameCounts(*(c[counts.frame < 4] for c in (counts.sp, counts.frame, counts.mask_id, counts.count)))
+    assert bridge_gaps(sp, np.array([1, 2, 3, 4]), few, SegmentConfig())[1] == 0
