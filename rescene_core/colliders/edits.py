@@ -37,6 +37,9 @@ in ``scene/export_report.json`` under the object.
   the board extended under the foot: a slab ``BOARD_THICKNESS`` thick under the foot's rectangle, its top
   at the child's bottom. The board spans the generated parent's footprint; the capture saw the child
   standing at that height over its whole foot.
+* **Flat bases.** A free object resting on something stands on its lowest points: its pieces' vertices within
+  ``FLAT_BASE_BAND`` of the lowest one are lowered onto it, one flat base (``footing.flat_base``: a
+  decomposition's bottom is uneven by millimetres, and the simulator's face contact keeps one facet of it).
 * **Footings.** A free object resting on something stands on its lowest points. A generated mesh's bottom
   is its generator's invention, often uneven: when the centre of mass (of its collision pieces) is not
   over the polygon of its points within ``CONTACT_BAND`` of the lowest one (shrunk by ``FOOTING_MARGIN``),
@@ -71,7 +74,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rescene_core.colliders.footing import footing
+from rescene_core.colliders.footing import flat_base, footing
 from rescene_core.colliders.hollow import resting_descendants, within_pulled_sides
 from rescene_core.colliders.pieces import (
     BOARD_THICKNESS,
@@ -98,6 +101,7 @@ class ColliderEdits:
     hollow: dict[str, Any] | None = None
     seats: list[dict[str, Any]] = field(default_factory=list)
     boards: list[dict[str, Any]] = field(default_factory=list)
+    flat_base: dict[str, Any] | None = None
     footing: dict[str, Any] | None = None
     clipped_m: float = 0.0
     separated: list[dict[str, Any]] = field(default_factory=list)
@@ -110,6 +114,7 @@ class ColliderEdits:
             "hollow_shell": self.hollow,
             "seats_cut": self.seats,
             "boards_under_children": self.boards,
+            "flat_base": self.flat_base,
             "footing": self.footing,
             "separated_from_neighbours": self.separated,
             "cut_at_walls": self.walls,
@@ -179,8 +184,9 @@ def edit_colliders(
 ) -> dict[str, ColliderEdits]:
     """Apply the edits of the module doc to ``pieces`` (node -> body-frame decomposition pieces, changed in
     place): clipping to the mesh (CoACD and hull pieces; ``methods``: node -> decomposition method), hollow
-    shells (computed by ``find_hollow``), completions, seats, footings, free bodies' pieces cut at the walls
-    of ``shell`` they graze (rescene_core/colliders/walls.py), neighbours cut apart, in that order.
+    shells (computed by ``find_hollow``), completions, seats, flat bases and footings, free bodies' pieces cut
+    at the walls of ``shell`` they graze (rescene_core/colliders/walls.py), neighbours cut apart, in that
+    order.
     ``masses``: node -> kg, for the load a footing carries (1 kg each when not given)."""
     places = {o.node_name: placement(o) for o in objects}
     by_instance = {int(o.instance): o for o in objects}
@@ -272,6 +278,7 @@ def edit_colliders(
         edge = parents.get(InstanceId(obj.instance))
         if kinds.get(name) != "free" or edge is None or edge.relation != Relation.RESTS_ON:
             continue
+        pieces[name], edits[name].flat_base = flat_base(places[name], pieces[name])
         load = carried(int(obj.instance), frozenset({int(obj.instance)}))
         bottoms = [
             float(places[n].world(np.vstack([v for v, _ in pieces[n]]))[:, 2].min())

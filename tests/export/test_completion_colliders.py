@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from rescene_core.colliders.footing import footing
+from rescene_core.colliders.footing import flat_base, footing
 from rescene_core.colliders.pieces import BOARD_THICKNESS, Placement, clip_to_mesh, cut_seat, inside_piece
 from rescene_core.export import ExportConfig, ExportObject, export_scene
 from rescene_core.geometry import sim3
@@ -319,3 +319,57 @@ def test_a_slab_carrying_things_past_its_body_gets_a_plinth_under_them():
     chair = np.array([[0.2, 0.5, 0.3]])
     piece, entry = footing(place, pieces, 3.0, books, chair, carried_from=0.8)
     assert piece is None and "without reaching into a neighbour" in entry["why"]
+
+
+def _pot(seed: int = 0) -> trimesh.Trimesh:
+    """A 16-sided pot 0.3 m tall, radius 0.12 m, whose bottom vertices (and 8 inside its rim) lie 0-1.8 mm
+    above its lowest one, as a decomposition of a generated mesh leaves them."""
+    rng = np.random.default_rng(seed)
+    ang = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    rim = np.c_[0.12 * np.cos(ang), 0.12 * np.sin(ang)]
+    inner = 0.5 * rim[::2] @ np.array([[np.cos(0.2), np.sin(0.2)], [-np.sin(0.2), np.cos(0.2)]])
+    bottom = np.c_[np.vstack([rim, inner]), rng.uniform(0, 0.0018, 24)]
+    return trimesh.convex.convex_hull(np.vstack([bottom, np.c_[rim, np.full(16, 0.3)]]))
+
+
+def _settle_pot_with_head(pieces, tmp_path) -> float:
+    """Horizontal drift (m) after 2 s in MuJoCo of a body of ``pieces`` under a 0.3 m head 0.15 m off its
+    axis (centre of mass 1.7 cm inside the base's edge), on a floor box as the exporter writes it."""
+    import mujoco
+
+    for i, (v, f) in enumerate(pieces):
+        trimesh.Trimesh(v, f).export(tmp_path / f"p{i}.stl")
+    assets = "".join(f'<mesh name="p{i}" file="p{i}.stl"/>' for i in range(len(pieces)))
+    geoms = "".join(f'<geom type="mesh" mesh="p{i}" density="300"/>' for i in range(len(pieces)))
+    model = mujoco.MjModel.from_xml_string(
+        f'<mujoco><compiler meshdir="{tmp_path}"/><option integrator="implicitfast"/><asset>{assets}</asset>'
+        '<worldbody><geom type="box" size="2 2 0.01" pos="0 0 -0.01"/><body name="b"><freejoint/>'
+        f'{geoms}<geom type="box" size="0.15 0.15 0.15" pos="0.15 0 0.6" density="300"/></body></worldbody></mujoco>'
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    start = data.xipos[1].copy()
+    for _ in range(1000):
+        mujoco.mj_step(model, data)
+    return float(np.linalg.norm((data.xipos[1] - start)[:2]))
+
+
+def test_a_flat_base_keeps_a_pot_standing_that_its_uneven_facets_tip(tmp_path):
+    pot = _pot()
+    place = _place(pot)
+    flat, entry = flat_base(place, [(pot.vertices, pot.faces)])
+    low = int((pot.vertices[:, 2] < 0.002).sum())  # the rim's 16 and those inside it that are hull vertices
+    assert low > 16 and entry is not None and entry["vertices_lowered"] == low - 1
+    assert 0.0015 < entry["max_lowered_m"] <= 0.002
+    v = flat[0][0]
+    level = pot.vertices[:, 2].min()
+    assert (np.isclose(v[:, 2], level, atol=1e-9) | np.isclose(v[:, 2], 0.3)).all()  # one level, the top untouched
+    assert len(v) == 32  # the vertices inside the rim are no longer vertices of the hull
+    # MuJoCo's face contact keeps one facet of the uneven bottom and the pot tips over its edge; flat, it stands
+    (tmp_path / "uneven").mkdir()
+    (tmp_path / "flat").mkdir()
+    assert _settle_pot_with_head([(pot.vertices, pot.faces)], tmp_path / "uneven") > 0.1
+    assert _settle_pot_with_head(flat, tmp_path / "flat") < 0.005
+    # nothing within the band: unchanged, no entry
+    box = trimesh.creation.box(bounds=[[0, 0, 0], [0.5, 0.5, 0.5]])
+    assert flat_base(_place(box), [(box.vertices, box.faces)])[1] is None
