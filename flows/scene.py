@@ -59,6 +59,28 @@ class InstanceOutcome:
     asset: PrefectFuture[Ref] | None = None
 
 
+def final(future: PrefectFuture[Ref]) -> PrefectFuture[Ref]:
+    """``future`` once its task run has ended. A task handed a future whose end this process has not seen
+    reads that task run's state from the API as it starts (Prefect looks for parent runs among its inputs):
+    one request per input, which a cached rerun of the whole flow pays for every task. Used where the next
+    task needs the result anyway, so nothing that could run waits."""
+    future.wait()
+    return future
+
+
+def after_each(
+    upstream: list[PrefectFuture[Ref]], submit: Callable[[PrefectFuture[Ref]], PrefectFuture[Ref]]
+) -> list[PrefectFuture[Ref]]:
+    """``submit(f)`` for every future of ``upstream`` as soon as its task run has ended, in upstream's order:
+    the per-instance chain of ``.map`` without a task waiting on its input in a thread, and without an API
+    read per input (``final``). A failed upstream task makes the submitted one NotReady, as ``.map`` does."""
+    index = {f: k for k, f in enumerate(upstream)}
+    out: dict[int, PrefectFuture[Ref]] = {}
+    for f in as_completed(upstream):
+        out[index[f]] = submit(final(f))
+    return [out[k] for k in range(len(upstream))]
+
+
 def _bind(task_, run: RunPaths):
     """The task with this run's result storage (cache records live in the run directory)."""
     return task_.with_options(result_storage=run.results, retry_delay_seconds=retry_delays(task_.retries))
@@ -149,11 +171,12 @@ def _run_scene(
             failures += [Missing(InstanceId(i), Stage.VIEW, reason) for i in ids]
             view_refs = []
         assets = asset_t.map(rd, cr, view_refs, unmapped(config.assets))
-        poses = pose_t.map(rd, cr, assets, unmapped(config.registration))
         frames = keyframes_of(str(run.root), keyframes_f.result())
         preds = relations_t.map(  # every VLM request holds a slot of the shared concurrency limit
-            rd, cr, unmapped(shell_f), frames, unmapped(config.scenegraph), request_slot=unmapped(vlm_slot)
+            rd, cr, unmapped(final(shell_f)), frames, unmapped(config.scenegraph), request_slot=unmapped(vlm_slot)
         )
+        # each registration starts as soon as its asset is generated
+        poses = after_each(assets, lambda asset: pose_t.submit(str(run.root), capture_in, asset, config.registration))
 
         # fan-in of the instances, reporting progress as each one finishes
         index = {fut: k for k, fut in enumerate(poses)}
@@ -200,18 +223,21 @@ def _run_scene(
                 frame_failures.append(f"key frame {frame} ({fut.state.message})")
         graph_f = fusion_t.submit(str(run.root), capture_in, shell_f, ok_preds, all_missing, config.scenegraph)
         layout_f = attach_t.submit(
-            str(run.root), capture_in, shell_f, graph_f, ok_assets, ok_poses, config.attachment, *walls
+            str(run.root), capture_in, shell_f, final(graph_f), ok_assets, ok_poses, config.attachment, *walls
         )
         scene_f = export_t.submit(
-            str(run.root), capture_in, shell_f, graph_f, layout_f, ok_assets, ok_poses, all_missing, config.export
-        )
+            str(run.root), capture_in, shell_f, graph_f, final(layout_f), ok_assets, ok_poses, all_missing,
+            config.export,
+        )  # fmt: skip
         scene_level = [(Stage.SHELL, shell_f), (Stage.KEYFRAMES, keyframes_f), (Stage.SNAPSHOT, snapshot_f)]
         scene_level += [(Stage.FUSION, graph_f), (Stage.ATTACHMENT, layout_f), (Stage.EXPORT, scene_f)]
         sim_f = None  # the physics check of the MJCF the export wrote; the evaluation reads its result
         if config.export.simulation:
-            sim_f = simcheck_t.submit(str(run.root), scene_f, config.sim)
+            sim_f = simcheck_t.submit(str(run.root), final(scene_f), config.sim)
             scene_level.append((Stage.SIMCHECK, sim_f))
-        eval_f = evaluate_t.submit(str(run.root), capture_in, scene_f, keyframes_f, physics=sim_f)
+        eval_f = evaluate_t.submit(
+            str(run.root), capture_in, final(scene_f), keyframes_f, physics=None if sim_f is None else final(sim_f)
+        )
         scene_level.append((Stage.EVALUATION, eval_f))
         wait([f for _, f in scene_level])
         for stage, fut in scene_level:
