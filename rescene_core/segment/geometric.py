@@ -32,7 +32,7 @@ which segmenter ran (``geometric``, ``masks``, with ``+clip`` when labelled).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -162,6 +162,16 @@ class SegmentConfig(BaseModel):
     (a chair's or sofa's back, a headboard) and stays with it."""
     support_band: float = 0.04
     """A body whose lowest point is within this of a top's height, or above it, stands on it (m)."""
+    top_min_points: int = 40
+    """Fewest upward-facing points in a 3 cm slab that make a horizontal top a body can stand on (0.025 m^2)."""
+    top_clearance: float = 0.015
+    """A body on a top is split off at this height above the top's plane (m): the fused top is about one
+    voxel thick."""
+    top_margin: float = 0.05
+    """A top reaches beyond a body's footprint on a side when it extends this far past it there (m)..."""
+    top_sides: int = 3
+    """... on at least this many of the four sides: a monitor, a lamp or a book stack on a desk (one side may
+    be the wall or the desk's edge); a back or an armrest along the seat's edge is the piece's own."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -512,8 +522,9 @@ def _support_cut(
 
 def merge_superpoints(
     sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig
-) -> tuple[NDArray[np.int64], NDArray[np.int64], dict[str, Any]]:
-    """Object region [s] of each superpoint (0: none) and its wall [s] (0: none), from geometry and colour
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], dict[str, Any]]:
+    """The scan points (their superpoints split where a body stands on a top: ``split_bodies_on_tops``),
+    the object region [s] of each superpoint (0: none) and its wall [s] (0: none), from geometry and colour
     alone (see the module docstring), with counts for the report."""
     g = sp.graph
     n = g.size
@@ -549,9 +560,111 @@ def merge_superpoints(
     region, stats["rejoined_enclosed"] = _rejoin_enclosed(
         sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
     )
+    sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
-    return region, which, stats
+    return sp, region, which, stats
+
+
+def _top_heights(z: NDArray[np.float64], cfg: SegmentConfig) -> list[float]:
+    """Heights (m) of the horizontal tops among upward-facing points at heights ``z`` [k]: 1 cm bins with
+    at least ``top_min_points`` points in a bin and its two neighbours, each the highest-count bin of its
+    own neighbourhood, above ``support_min_height``."""
+    z = z[z >= cfg.support_min_height]
+    if len(z) < cfg.top_min_points:
+        return []
+    edges = np.arange(z.min() - 0.005, z.max() + 0.015, 0.01)
+    hist = np.histogram(z, edges)[0]
+    slab = hist + np.r_[0, hist[:-1]] + np.r_[hist[1:], 0]
+    peak = (slab >= cfg.top_min_points) & (slab >= np.r_[0, slab[:-1]]) & (slab > np.r_[slab[1:], 0])
+    out = []
+    for i in np.flatnonzero(peak).tolist():
+        near = np.abs(z - 0.5 * (edges[i] + edges[i + 1])) <= 0.015
+        out.append(float(np.median(z[near])))
+    return out
+
+
+def split_bodies_on_tops(
+    sp: ScanPoints, region: NDArray[np.int64], which: NDArray[np.int64], cfg: SegmentConfig
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
+    """Bodies standing on a horizontal top of their region are split off it at the top's plane: a monitor
+    on a desk (its base plate rises 3-7 cm, no crease and no colour step parts it), a lamp whose base disc
+    fused into the top's superpoint, a book stack on a table.
+
+    For each region (``region`` [s], 0: none) and each top of it (``_top_heights``: a slab of upward-facing
+    points above ``support_min_height``), the region's points more than ``top_clearance`` above the top and
+    over its bounds fall into connected parts of the point graph. A part is a body on the top when it has
+    ``min_segment_points`` points, begins within ``support_band`` of the top, touches nothing of its region
+    below the top (a side panel or a leg does), is narrower than ``support_span_fraction`` of the top both
+    ways (a chair's back or a headboard spans its seat) and the top reaches beyond its footprint by
+    ``top_margin`` on ``top_sides`` sides or more of the four (x and y in the aligned frame). Superpoints a
+    body cuts are split. ``which`` [s]: the wall of each superpoint (0: none). Returns the scan points with
+    the new superpoint graph, the region and wall of each new superpoint, and how many bodies were split."""
+    g = sp.graph
+    point_region = region[g.label].copy()
+    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
+    i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
+    nxt = int(region.max(initial=0)) + 1
+    split = 0
+    off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
+    z = sp.points[:, 2]
+    for r in range(1, int(region.max(initial=0)) + 1):
+        mine = (point_region == r) & off_wall
+        if mine.sum() < 2 * cfg.min_segment_points:
+            continue
+        for h in _top_heights(z[mine & up], cfg):
+            mine = (point_region == r) & off_wall
+            slab = mine & up & (np.abs(z - h) <= cfg.support_band / 2)
+            if slab.sum() < cfg.top_min_points:
+                continue
+            tlo, thi = sp.points[slab, :2].min(axis=0), sp.points[slab, :2].max(axis=0)
+            above = mine & (z > h + cfg.top_clearance)
+            if above.sum() < cfg.min_segment_points:
+                continue
+            below = mine & (z < h - cfg.top_clearance)
+            inner = above[i0] & above[i1]
+            local = np.cumsum(above) - 1  # index among the points above
+            n = int(above.sum())
+            adj = coo_matrix((np.ones(int(inner.sum())), (local[i0[inner]], local[i1[inner]])), shape=(n, n))
+            comp = np.full(len(above), -1, np.int64)
+            comp[above] = connected_components(adj, directed=False)[1]
+            # parts touching the region below the top (a leg, a side panel, a hutch's sides) are no bodies on it
+            down = np.unique(np.r_[comp[i0[above[i0] & below[i1]]], comp[i1[above[i1] & below[i0]]]])
+            ids, counts = np.unique(comp[above], return_counts=True)
+            for c in ids[counts >= cfg.min_segment_points].tolist():
+                if c in down:
+                    continue
+                body = above & (comp == c)
+                p = sp.points[body]
+                lo, hi = p.min(axis=0), p.max(axis=0)
+                centre = p[:, :2].mean(axis=0)
+                if lo[2] > h + cfg.support_band or np.any(centre < tlo) or np.any(centre > thi):
+                    continue  # it does not stand on the top (a shelf board over it, a part beside it)
+                if np.any(hi[:2] - lo[:2] >= cfg.support_span_fraction * (thi - tlo)):
+                    continue  # a chair's back, a headboard, a hutch: the piece's own
+                t = sp.points[slab, :2]
+                inside_y = (t[:, 1] >= lo[1]) & (t[:, 1] <= hi[1])
+                inside_x = (t[:, 0] >= lo[0]) & (t[:, 0] <= hi[0])
+                sides = [
+                    (inside_y & (t[:, 0] < lo[0] - cfg.top_margin)).sum(),
+                    (inside_y & (t[:, 0] > hi[0] + cfg.top_margin)).sum(),
+                    (inside_x & (t[:, 1] < lo[1] - cfg.top_margin)).sum(),
+                    (inside_x & (t[:, 1] > hi[1] + cfg.top_margin)).sum(),
+                ]
+                if sum(k >= cfg.min_contacts for k in sides) < cfg.top_sides:
+                    continue
+                point_region[body] = nxt
+                nxt += 1
+                split += 1
+    if split == 0:
+        return sp, region, which, 0
+    key = g.label * nxt + point_region
+    uk, label = np.unique(key, return_inverse=True)
+    new_region = (uk % nxt).astype(np.int64)
+    new_which = which[uk // nxt]
+    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
+    graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
+    return replace(sp, graph=graph), new_region, new_which, split
 
 
 def _rejoin_enclosed(
@@ -982,7 +1095,7 @@ def segment_geometric(
     cfg = config or SegmentConfig()
     verts, faces, struct, planes, sp, seconds = fuse_scan(rgb, depth, K, world_from_cam, cfg)
     t = time.perf_counter()
-    region, _, stats = merge_superpoints(sp, planes, cfg)
+    sp, region, _, stats = merge_superpoints(sp, planes, cfg)
     seconds["merge"] = time.perf_counter() - t
     t = time.perf_counter()
     result = _finish(rgb, depth, K, world_from_cam, verts, faces, struct, planes, sp, region, cfg, "geometric",

@@ -100,3 +100,24 @@ def test_a_lamp_pole_reaching_into_its_open_shade_finds_the_shade():
     assert _hollow_over(1, lo, hi, slender, 0.04) == 2
     lo[2, 2] = 1.45  # a shade beginning 15 cm over the pole's end is no part of it
     assert _hollow_over(1, lo, hi, slender, 0.04) == 0
+
+
+def test_a_monitor_on_a_desk_is_split_off_at_the_top_and_the_desks_own_back_is_not():
+    from rescene_core.segment.geometric import split_bodies_on_tops
+
+    top = _box((0.0, 0.0, 0.75), (1.2, 0.6, 0.75))
+    legs = [_box((x, y, 0.04), (x + 0.05, y + 0.05, 0.725)) for x in (0.0, 1.15) for y in (0.0, 0.55)]
+    # a monitor: a base plate 2.5 cm over the top (no crease, one region with the desk) and its screen
+    base = _box((0.5, 0.3, 0.775), (0.7, 0.45, 0.775))
+    screen = _box((0.4, 0.425, 0.8), (0.8, 0.45, 1.1))
+    back = _box((0.0, 0.6, 0.775), (1.2, 0.6, 1.0))  # the desk's back board, as wide as its top
+    corner = _box((0.0, 0.0, 0.775), (0.2, 0.15, 0.9))  # a box at the desk's corner: the top beyond on 2 sides
+    sp, _ = _scan([top, *legs, base, screen, back, corner])
+    region = np.ones(sp.graph.size, np.int64)
+    sp2, region2, which2, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+    point_region = region2[sp2.graph.label]
+    monitor = np.r_[np.zeros(len(top) + sum(map(len, legs)), bool), np.ones(len(base) + len(screen), bool)]
+    monitor = np.r_[monitor, np.zeros(len(back) + len(corner), bool)]
+    assert split == 1 and len(which2) == sp2.graph.size
+    assert len(np.unique(point_region[monitor])) == 1 and (point_region[monitor] != 1).all()
+    assert (point_region[~monitor] == 1).all()  # the top, the legs, the back board and the corner box
