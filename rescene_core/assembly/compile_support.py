@@ -278,6 +278,39 @@ def level_seen_around(state: LayoutState, parent: InstanceId, child: InstanceId)
     return float(np.percentile(heights[band][around], 75))
 
 
+SEEN_TOP_MARGIN = 0.005
+"""A generated parent's face farther than this (m) from the top its observed points show around a child
+(``seen_top_around``) is not where the child stands: the seen top carries it (a few millimetres of depth
+noise and marching-cubes steps are not a disagreement)."""
+SURFACE_HALF_BAND = 0.01
+"""Half the height (m) of the window in which a surface's points are counted (``seen_top_around``)."""
+SEEN_TOP_ABOVE = 0.10
+"""How far (m) above a surface seen around a child a denser one makes it a front face, not the top (farther
+up, a denser layer is a shelf board above the child, not its support's top)."""
+
+
+def seen_top_around(state: LayoutState, parent: InstanceId, child: InstanceId) -> float | None:
+    """Height (m above the floor) at which the capture saw ``parent``'s top around ``child``
+    (``level_seen_around``), when that surface is the parent's top there: no window of 2 x SURFACE_HALF_BAND
+    higher up (beyond LEVEL_BAND, up to SEEN_TOP_ABOVE) holds more of the parent's observed points within LEVEL_REGION of the
+    child's registered footprint than the window at it. Below a dense top the band at a low child's bottom
+    holds the parent's front face, not a surface; the child's own bleed above a top is sparse. None without
+    such evidence."""
+    around = level_seen_around(state, parent, child)
+    if around is None:
+        return None
+    pts = np.asarray(state.objects[parent].points, dtype=np.float64)
+    fp = footprint(state.objects[child].world_vertices()).buffer(LEVEL_REGION)
+    heights = np.sort(state.room.floor_distance(pts[shapely.contains_xy(fp, pts[:, 0], pts[:, 1])]))
+    window = np.searchsorted(heights, heights + SURFACE_HALF_BAND, side="right") - np.searchsorted(
+        heights, heights - SURFACE_HALF_BAND, side="left"
+    )
+    at = int(np.count_nonzero(np.abs(heights - around) <= SURFACE_HALF_BAND))
+    higher = (heights > around + LEVEL_BAND[1] + SURFACE_HALF_BAND) & (heights <= around + SEEN_TOP_ABOVE)
+    above = window[higher]
+    return around if above.size == 0 or int(above.max()) <= at else None
+
+
 def extend_under_child(
     state: LayoutState, parent: InstanceId, child: InstanceId, level: SupportLevel
 ) -> SupportLevel | None:
@@ -381,6 +414,16 @@ def compile_support(
             }
     level = min(feasible, key=lambda lv: abs(lv.height - seen_bottom)) if feasible else levels[0]
     off_by = abs(level.height - seen_bottom)
+    if parent_generated and not obj.exact_shape and board is None:
+        # the generated face a few millimetres or more from the top the parent's points show around the child
+        # (an island's completion 1 cm above its seen worktop, a counter's top lowered with a mesh too short
+        # for it): the child stands where the top was seen
+        top = seen_top_around(state, parent, child)
+        if top is not None and abs(level.height - top) > SEEN_TOP_MARGIN and abs(top - seen_bottom) < off_by:
+            plane = plane_at(state, parent, child, top, "the parent's top seen around the child")
+            if plane is not None:
+                level, board, evidence = plane, plane, "the parent's observed top around the child"
+                off_by = abs(level.height - seen_bottom)
     if parent_generated and not obj.exact_shape and board is None and off_by > TOP_FIT_MARGIN:
         # a generated face too high or too low where the parent's points show the surface the child stands on:
         # at its top, the points in the parent's box; anywhere (a stepped top, a slab of the parent's seen
@@ -391,7 +434,7 @@ def compile_support(
         if seen_board is not None and abs(seen_board.height - seen_bottom) < off_by:
             level, board, evidence = seen_board, seen_board, "the parent's observed points at its top"
         else:
-            around = level_seen_around(state, parent, child)
+            around = seen_top_around(state, parent, child)
             if around is not None and abs(around - seen_bottom) < off_by:
                 plane = plane_at(state, parent, child, around, "the parent's top seen around the child")
                 if plane is not None:

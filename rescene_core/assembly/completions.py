@@ -45,10 +45,12 @@ import trimesh
 from numpy.typing import NDArray
 from shapely.geometry import MultiPoint, Polygon
 
-from rescene_core.assembly.evidence import points_fit
-from rescene_core.assembly.objects import footprint
+from rescene_core.assembly.evidence import points_fit, points_in_box
+from rescene_core.assembly.objects import AssemblyObject, footprint
+from rescene_core.assembly.room import Room
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
+from rescene_core.assembly.trim import MIN_POINTS, TOP_BIN, seen_top
 from rescene_core.geometry.completion import cut_mesh
 from rescene_core.geometry.sim3 import apply, inverse
 from rescene_core.records import Completion, CompletionKind, InstanceId, Relation, Root
@@ -76,26 +78,73 @@ CLEAR_DIRECTIONS = 24
 """Horizontal directions tried (besides the outline's own edge normals) for the cut keeping a base clear."""
 
 
-def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray) -> tuple[NDArray, float]:
+TOP_UPPER_PERCENTILE = 95.0
+"""The upper edge of the top the points show: this percentile of the heights at their top (``seen_top_band``)."""
+TOP_SPREAD_PERCENTILE = 10.0
+"""The lower edge of that top's spread: this percentile of the same heights."""
+
+
+def seen_top_band(obj: AssemblyObject, room: Room) -> tuple[float, float] | None:
+    """How high generated ``obj``'s observed points show the object reaching, as the upper and lower edges
+    (TOP_UPPER_PERCENTILE, TOP_SPREAD_PERCENTILE; m above the floor) of the heights of its points in the
+    registered mesh box within two bins below the upper edge of their highest dense height bin (``trim.seen_top``: a child's sparse bleed above the top does
+    not count): a worktop seen from above, or the upper edge of a side seen up to there. None for an exact
+    shape, or when fewer than ``trim.MIN_POINTS`` show the top."""
+    if obj.exact_shape or obj.points is None or len(obj.points) == 0:
+        return None
+    heights = room.floor_distance(points_in_box(obj))
+    top = seen_top(heights)
+    if top is None:
+        return None
+    band = heights[(heights >= top - 2.0 * TOP_BIN) & (heights <= top)]  # a surface may straddle two bins
+    if len(band) < MIN_POINTS:
+        return None  # too few to say where the top is (sparse points spread over the object)
+    return float(np.percentile(band, TOP_UPPER_PERCENTILE)), float(np.percentile(band, TOP_SPREAD_PERCENTILE))
+
+
+def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray) -> tuple[NDArray, float, str | None]:
     """World pose [4, 4] of ``child`` between its registered height and ``full_pose`` (its full floor snap)
-    whose mesh box explains the most of its observed points, and the fraction of the snap taken (0 to 1)."""
+    whose mesh box explains the most of its observed points, the fraction of the snap taken (0 to 1), and the
+    reason when the snap was capped at the seen top (None otherwise).
+
+    No height lowers the mesh's top below the lower edge of the spread of the top the capture saw
+    (``seen_top_band``; not below its registered top when that lies below the upper edge): a mesh too
+    short for its object, registered on the top the camera saw (a counter seen from above, 1.6 cm short of the
+    floor), keeps its seen top, where its children stand, and gets a base under it instead. Within that, the
+    largest move its points explain as well as any allowed one is taken: the mesh comes down until its top
+    meets the seen top."""
     room = state.room
     obj = state.objects[child]
     verts = obj.world_vertices(full_pose)
     registered_bottom = float(room.floor_distance(obj.world_vertices()).min())
     snapped_bottom = float(room.floor_distance(verts).min())
     drop = registered_bottom - snapped_bottom  # > 0: the snap moves the object down
+    limit, capped = 1.0, None
+    seen = seen_top_band(obj, room) if drop > 0 else None
+    if seen is not None:
+        upper, low = seen
+        top = float(room.floor_distance(verts).max())  # the mesh's top at the full snap
+        registered_top = top + drop
+        # a top registered at or below where the points show the top stays; a higher one may come down to the
+        # lower edge of their spread
+        keep = min(registered_top, low) if registered_top > upper else registered_top
+        if top < keep:  # at (1 - t) * drop above the full snap the top is at keep
+            limit = float(np.clip(1.0 - (keep - top) / drop, 0.0, 1.0))
+            capped = (
+                f"the full snap would lower the mesh's top {upper - top:.3f} m below the top its observed points "
+                f"show ({upper:.3f} m): {limit:.0%} of it taken, a base fills the rest"
+            )
     candidates = []
     for k in range(SNAP_STEPS):
-        taken = k / (SNAP_STEPS - 1)
+        taken = limit * k / (SNAP_STEPS - 1)
         pose = translation((1.0 - taken) * drop * room.up) @ full_pose
         candidates.append((points_fit(obj, pose) or 0.0, taken, pose))
     best = max(fit for fit, _, _ in candidates)
-    if candidates[-1][0] >= best - FIT_TIE:  # the full snap explains the points as well: contact, no base
-        return full_pose, 1.0
+    if candidates[-1][0] >= best - FIT_TIE:  # the largest snap allowed explains the points as well
+        return (full_pose, 1.0, None) if capped is None else (candidates[-1][2], limit, capped)
     # in order of the move taken: the first within FIT_TIE of the best is the smallest such move
     fit, taken, pose = next(c for c in candidates if c[0] >= best - FIT_TIE)
-    return pose, taken
+    return pose, taken, capped
 
 
 def _outline(

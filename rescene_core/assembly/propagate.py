@@ -113,9 +113,9 @@ def propagate(state: LayoutState, use_walls: bool = True) -> None:
         target = parent_delta @ update @ state.objects[child].world_from_asset
         refused = evidence_refuses(state, child, target)
         if edge.parent is Root.FLOOR and edge.relation is Relation.RESTS_ON and has_evidence(state, child):
-            pose, taken = bounded_floor_snap(state, child, target)
+            pose, taken, why = bounded_floor_snap(state, child, target)
             if taken < 1.0:
-                floor_with_base(state, child, edge, pose, taken, stage, refused, info)
+                floor_with_base(state, child, edge, pose, taken, stage, why or refused, info)
                 continue
         if refused is not None:
             keep_registered(state, child)
@@ -245,9 +245,9 @@ def floor_with_base(
     refused: str | None,
     info: dict,
 ) -> None:
-    """A floor snap the child's points would explain worse than a smaller one (its generated mesh lacks its
-    lower part): ``pose``, the part of the snap the points prefer (``completions.bounded_floor_snap``,
-    ``taken`` of it), and a base under the mesh at the final pose when the edge is confident enough to close
+    """A floor snap the child's points would explain worse than a smaller one, or that would lower the top
+    they show (its generated mesh lacks its lower part): ``pose``, the part of the snap the points allow
+    (``completions.bounded_floor_snap``, ``taken`` of it; ``refused``: why not all of it), and a base under the mesh at the final pose when the edge is confident enough to close
     its contact (``contact_closure_min_confidence``)."""
     registered = state.objects[child].world_from_asset
     still = evidence_refuses(state, child, pose)

@@ -222,6 +222,27 @@ def find_unfit(state: LayoutState) -> frozenset[InstanceId]:
     return frozenset(out)
 
 
+RESEAT_MAX_OFFSET = 0.10
+"""Farthest (m) a generated child with observed points is re-seated from where it was registered
+(horizontally, box centre to box centre): the re-seat puts it back over its registered centre, or the parent's
+face grown under it where the capture saw the parent there (``compile_support.extend_under_child``), so a face
+farther off belongs to a parent that a repair took away from the child's points (or to a wrong relation), and
+the child keeps its registered pose."""
+
+
+def reseat_offset(state: LayoutState, child: InstanceId, correction: np.ndarray) -> float | None:
+    """Horizontal distance (m) between ``child``'s registered bounding-box centre and its centre after
+    ``correction`` (world [4, 4]) at its current pose; None for an exact shape or a child without points."""
+    obj = state.objects[child]
+    if obj.exact_shape or obj.points is None or len(obj.points) == 0:
+        return None
+    seen = obj.world_vertices()
+    now = obj.world_vertices(correction @ state.pose(child))
+    step = 0.5 * (now.min(axis=0) + now.max(axis=0)) - 0.5 * (seen.min(axis=0) + seen.max(axis=0))
+    step = step - float(step @ state.room.up) * state.room.up
+    return float(np.linalg.norm(step))
+
+
 def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None:
     """Put children resting on objects back on their parents' support faces after the repairs.
 
@@ -230,7 +251,8 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
     ``compile_support`` puts it back over its registered centre (or the nearest point of the face) at the
     face's height, unless that would leave its observed points behind (``evidence.evidence_refuses``): then
     it keeps its registered pose, on a support plane at its registered bottom when that lies inside its
-    parent (``compile_support.board_at_child``). Parents before children."""
+    parent (``compile_support.board_at_child``); so does a generated child whose parent's face would put it
+    more than RESEAT_MAX_OFFSET from where it was registered. Parents before children."""
     from rescene_core.assembly.compile_support import board_at_child, compile_support
     from rescene_core.assembly.evidence import evidence_refuses
 
@@ -243,11 +265,18 @@ def reseat_children(state: LayoutState, stage: str = "re-seat children") -> None
         if correction is None or np.allclose(correction, np.eye(4), atol=1e-6):
             continue
         refused = evidence_refuses(state, child, correction @ state.pose(child))
+        off = reseat_offset(state, child, correction)
+        if refused is None and off is not None and off > RESEAT_MAX_OFFSET:
+            refused = (
+                f"its parent's support face lies {off:.2f} m from where its points were seen (more than "
+                f"{RESEAT_MAX_OFFSET} m): not re-seated there"
+            )
         if refused is not None:  # the relational layer refused this child's face for the same reason
             state.skip(child, stage, refused)
             # nor does it follow its parent's repairs: it stays where it was seen
             back = state.objects[child].world_from_asset @ np.linalg.inv(state.pose(child))
-            state.move(child, back, stage, "keep registered pose", parent=int(edge.parent))
+            # back where it was seen: no correction away from the evidence, so the bound does not apply
+            state.move(child, back, stage, "keep registered pose", bounded=False, parent=int(edge.parent))
             # where it was seen standing inside its parent, the parent has a shelf its mesh lacks
             if board_at_child(state, InstanceId(edge.parent), child) is not None:
                 state.log(
