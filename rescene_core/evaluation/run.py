@@ -11,15 +11,20 @@ docs/evaluation.md describes the metrics.
 
 from __future__ import annotations
 
+import hashlib
+import threading
 import time
+from concurrent.futures import Future
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import trimesh
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
 
 from rescene_core.assembly import AssemblyObject
-from rescene_core.capture import open_capture
+from rescene_core.capture import Capture, open_capture
 from rescene_core.capture.ground_truth import read_ground_truth
 from rescene_core.evaluation.geometry import GeometryConfig, geometry_metrics
 from rescene_core.evaluation.ground_truth import gt_metrics
@@ -29,7 +34,8 @@ from rescene_core.evaluation.report_html import write_report_html
 from rescene_core.evaluation.scene import LoadedScene, load_scene, placed_meshes
 from rescene_core.evaluation.structural import structural_metrics
 from rescene_core.export import ExportConfig, shell_meshes
-from rescene_core.io import read_json, write_bytes_atomic, write_json_atomic
+from rescene_core.exported_scene import ExportedScene
+from rescene_core.io import hash_file, read_json, write_bytes_atomic, write_json_atomic
 from rescene_core.paths import RunPaths
 
 
@@ -153,20 +159,13 @@ def evaluate_run(
     if shell is not None:
         shell_geometry = shell_meshes(shell, ExportConfig())
     if cap is not None and doc is not None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        metrics["geometry"] = geometry_metrics(placed, shell_geometry, cap, gt, config.geometry)
-        timings["geometry"] = time.perf_counter() - t0
-        timings["geometry_cpu"] = time.process_time() - c0
-        key_frames = None
-        kf_path = RunPaths(run_dir).keyframes
-        if kf_path.exists():
-            key_frames = [int(t) for t in read_json(kf_path).get("frames", [])]
-        else:
-            not_computed["key_frames"] = "no keyframes.json: rendering is compared on every frame"
-        t0, c0 = time.perf_counter(), time.process_time()
-        metrics["rendering"] = rendering_metrics(placed, shell_geometry, cap, key_frames, config.rendering)
-        timings["rendering"] = time.perf_counter() - t0
-        timings["rendering_cpu"] = time.process_time() - c0
+        started_early = _take_started(run_dir, capture, config)
+        scene_part = started_early if started_early is not None else _scene_metrics(
+            run_dir, placed, shell_geometry, cap, gt, config
+        )  # fmt: skip
+        metrics.update(scene_part.metrics)
+        timings.update(scene_part.timings)
+        not_computed.update(scene_part.not_computed)
 
     checks = (
         ("physics", RunPaths(run_dir).simcheck, "run `rescene simcheck RUN`"),
@@ -206,6 +205,121 @@ def evaluate_run(
     if config.html:
         write_report_html(run_dir, metrics)
     return metrics
+
+
+@dataclass(frozen=True)
+class SceneMetrics:
+    """The geometry and rendering sections of the metrics (the bulk of the evaluation's time), their
+    timings and what they could not compute."""
+
+    metrics: dict[str, Any]
+    timings: dict[str, float]
+    not_computed: dict[str, str]
+
+
+def _scene_metrics(
+    run_dir: Path,
+    placed: dict[int, tuple[str, trimesh.Trimesh]],
+    shell_geometry: dict[str, trimesh.Trimesh],
+    cap: Capture,
+    gt: Any,
+    config: EvaluationConfig,
+) -> SceneMetrics:
+    """Geometry and rendering metrics of the placed scene against the capture (and ``gt`` when given)."""
+    timings: dict[str, float] = {}
+    not_computed: dict[str, str] = {}
+    t0, c0 = time.perf_counter(), time.process_time()
+    geometry = geometry_metrics(placed, shell_geometry, cap, gt, config.geometry)
+    timings["geometry"] = time.perf_counter() - t0
+    timings["geometry_cpu"] = time.process_time() - c0
+    key_frames = None
+    kf_path = RunPaths(run_dir).keyframes
+    if kf_path.exists():
+        key_frames = [int(t) for t in read_json(kf_path).get("frames", [])]
+    else:
+        not_computed["key_frames"] = "no keyframes.json: rendering is compared on every frame"
+    t0, c0 = time.perf_counter(), time.process_time()
+    rendering = rendering_metrics(placed, shell_geometry, cap, key_frames, config.rendering)
+    timings["rendering"] = time.perf_counter() - t0
+    timings["rendering_cpu"] = time.process_time() - c0
+    return SceneMetrics({"geometry": geometry, "rendering": rendering}, timings, not_computed)
+
+
+# ---- the scene metrics started early --------------------------------------------------------------------------
+
+_STARTED: dict[str, Future[SceneMetrics]] = {}
+"""Scene metrics started in this process before the evaluation (``start_scene_metrics``), by the key of what
+they read (``_inputs_key``); each is taken once."""
+_STARTED_LOCK = threading.Lock()
+MAX_STARTED = 4
+"""At most this many started and not yet taken (the oldest is dropped: its evaluation computes again)."""
+
+
+def _inputs_key(run_dir: Path, capture: str | Path | None, config: EvaluationConfig) -> str | None:
+    """sha256 of everything ``_scene_metrics`` reads from the run directory (scene.json, each object's mesh
+    file, keyframes.json), the capture's path and the config; None without an exported scene."""
+    run = RunPaths(run_dir)
+    if capture is None or not run.scene_json.exists():
+        return None
+    h = hashlib.sha256(f"{Path(run_dir).resolve()}|{Path(capture).resolve()}|{config.model_dump_json()}".encode())
+    h.update(hash_file(run.scene_json).encode())
+    for obj in ExportedScene.read(run.scene_json).objects:
+        mesh = run.scene / obj.mesh
+        h.update(hash_file(mesh).encode() if mesh.exists() else b"absent")
+    h.update(hash_file(run.keyframes).encode() if run.keyframes.exists() else b"absent")
+    return h.hexdigest()
+
+
+def start_scene_metrics(run_dir: str | Path, capture: str | Path, config: EvaluationConfig | None = None) -> None:
+    """Start the geometry and rendering metrics of the run's exported scene in a thread of this process, for
+    ``evaluate_run`` to take when it reads the same files (else it computes them itself, and what was
+    started is dropped). The export calls it once the visual scene (scene.json, objects/) is written and
+    before the collision decomposition, whose worker processes it then runs beside: the evaluation waits
+    for the physics check, which waits for the decomposition, though these metrics read neither.
+    The same functions on the same files: the metrics are the same either way."""
+    config = config or EvaluationConfig()
+    run_dir = Path(run_dir)
+    key = _inputs_key(run_dir, capture, config)
+    if key is None:
+        return
+
+    def compute() -> SceneMetrics:
+        doc = load_scene(run_dir)
+        cap = open_capture(capture, validate=False)
+        gt = read_ground_truth(cap)
+        shell = shell_meshes(doc.scene.shell, ExportConfig()) if doc.scene.shell is not None else {}
+        return _scene_metrics(run_dir, placed_meshes(doc), shell, cap, gt, config)
+
+    future: Future[SceneMetrics] = Future()
+
+    def work() -> None:
+        try:
+            future.set_result(compute())
+        except BaseException as err:  # noqa: BLE001 - handed to the evaluation, which computes again
+            future.set_exception(err)
+
+    with _STARTED_LOCK:
+        _STARTED[key] = future
+        while len(_STARTED) > MAX_STARTED:
+            _STARTED.pop(next(iter(_STARTED)))
+    threading.Thread(target=work, name="rescene-scene-metrics", daemon=True).start()
+
+
+def _take_started(run_dir: Path, capture: str | Path | None, config: EvaluationConfig) -> SceneMetrics | None:
+    """The scene metrics started for exactly these inputs, once they are done; None when none were (or
+    they failed: the evaluation then computes them itself, and any error is raised there)."""
+    with _STARTED_LOCK:
+        if not _STARTED:
+            return None
+    key = _inputs_key(run_dir, capture, config)
+    with _STARTED_LOCK:
+        future = _STARTED.pop(key, None) if key is not None else None
+    if future is None:
+        return None
+    try:
+        return future.result()
+    except Exception:  # noqa: BLE001 - computed again in the evaluation, where an error is reported
+        return None
 
 
 def _summary(metrics: dict[str, Any]) -> dict[str, Any]:

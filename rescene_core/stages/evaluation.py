@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from rescene_core.evaluation import evaluate_run
+from rescene_core.evaluation.run import start_scene_metrics
 from rescene_core.paths import RunPaths
 from rescene_core.records import Ref, Stage
+from rescene_core.stages import hooks
 from rescene_core.stages.execution import executing, make_ref
 
 
@@ -18,3 +20,13 @@ def run(run_dir: str, capture: Ref, scene: Ref, keyframes: Ref | None = None, ph
         flat = {k: v for k, v in metrics.get("summary", {}).items() if isinstance(v, int | float)}
         seg.log("/metrics", {"stage": Stage.EVALUATION, "metrics": flat})
         return make_ref(run_dir, run.metrics, "metrics", numbers=flat)
+
+
+def start_early(run_dir: str, capture: str) -> None:
+    """The evaluation's geometry and rendering metrics, started as soon as the export has written the visual
+    scene (``hooks.VISUAL_SCENE_WRITTEN``); ``run`` takes them when it reads the same files."""
+    start_scene_metrics(run_dir, capture)
+
+
+if start_early not in hooks.VISUAL_SCENE_WRITTEN:
+    hooks.VISUAL_SCENE_WRITTEN.append(start_early)

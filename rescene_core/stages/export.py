@@ -8,10 +8,11 @@ import json
 
 from rescene_core.capture import open_capture
 from rescene_core.export import ExportConfig, export_scene, placed_objects
-from rescene_core.io import read_json
+from rescene_core.export.simulation import export_simulation
+from rescene_core.io import hash_file, hash_tree, read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import Layout, Missing, Ref, SceneGraph, Stage
-from rescene_core.stages import common
+from rescene_core.stages import common, hooks
 from rescene_core.stages.execution import executing, make_ref
 
 
@@ -33,15 +34,25 @@ def run(
         layout_rec = Layout.from_json(read_json(run.root / layout.path))
         objects = placed_objects(common.placed_objects(run_dir, cap, assets, poses), layout_rec)
         all_missing = list(missing) + list(layout_rec.missing)
+        shell_rec = common.load_shell(run_dir, shell)
+        graph_rec = SceneGraph.from_json(read_json(run.root / graph.path))
+        # the visual scene first (export_scene without the simulation exports), then the simulation exports as
+        # export_scene adds them: work that reads only the visual scene starts in between and runs beside the
+        # collision decomposition's worker processes (rescene_core/stages/hooks.py)
         hashes = export_scene(
             run.scene,
             objects,
-            common.load_shell(run_dir, shell),
-            SceneGraph.from_json(read_json(run.root / graph.path)),
+            shell_rec,
+            graph_rec,
             all_missing,
-            config,
+            config.model_copy(update={"simulation": False}),
             extra={"scene_id": cap.scene_id, "capture": capture.path, "capture_sha256": capture.sha256},
         )
+        if config.simulation:
+            hooks.visual_scene_written(str(run.root), capture.path)
+            sim = export_simulation(run.scene, list(objects), shell_rec, graph_rec, all_missing, config)
+            hashes.update({rel: hash_file(run.scene / rel) for rel in sim.files})
+            hashes[sim.mjcf_dir] = hash_tree(run.scene / sim.mjcf_dir)
         seg.log("/metrics", {"stage": Stage.EXPORT, "metrics": {"objects": len(objects), "files": len(hashes)}})
         ref = make_ref(run_dir, run.scene_json, "scene", numbers={"objects": len(objects)}, detail={"files": hashes})
         # the reference stands for the whole scene/ directory: an MJCF or USD that changed while scene.json did

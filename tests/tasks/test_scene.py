@@ -120,6 +120,30 @@ def test_snapshot_attachment_export_evaluation(placed, capture, tmp_path):
     assert json.loads(run.metrics.read_text())["objects"] == 3
 
 
+def test_export_hashes_every_file_and_starts_the_evaluation_metrics(placed, capture, tmp_path):
+    """The export writes the visual scene, starts the evaluation's scene metrics, then adds the simulation
+    exports; its reference covers every file as export_scene's own hashes do, and the evaluation takes
+    what was started."""
+    from rescene_core.evaluation import run as evaluation
+    from rescene_core.io import hash_tree
+
+    rd = str(tmp_path)
+    shell, assets, poses = placed
+    preds = [T.predict_relations.fn(rd, capture, shell, t, SceneGraphConfig()) for t in (0, 2)]
+    graph = T.fuse_graph.fn(rd, capture, shell, preds, [], SceneGraphConfig())
+    layout = T.attach_layout.fn(rd, capture, shell, graph, assets, poses, AttachmentConfig(), *WALLS)
+    evaluation._STARTED.clear()
+    scene = T.export.fn(rd, capture, shell, graph, layout, assets, poses, [], ExportConfig())
+    run = RunPaths(tmp_path)
+    files = scene.detail["files"]
+    assert {"scene.json", "scene.glb", "points.zarr", "mjcf", "mjcf/scene.xml", "export_report.json"} <= set(files)
+    for rel, sha in files.items():
+        assert sha == (hash_tree(run.scene / rel) if (run.scene / rel).is_dir() else hash_file(run.scene / rel)), rel
+    assert len(evaluation._STARTED) == 1
+    T.evaluate.fn(rd, capture, scene)
+    assert not evaluation._STARTED
+
+
 def test_attachment_of_no_objects_does_not_call_the_library(fake_stages, capture, tmp_path):
     rd = str(tmp_path)
     shell = T.estimate_shell.fn(rd, capture, ShellConfig())
