@@ -111,8 +111,9 @@ def bounded_floor_snap(state: LayoutState, child: InstanceId, full_pose: NDArray
     (``seen_top_band``; not below its registered top when that lies below the upper edge): a mesh too
     short for its object, registered on the top the camera saw (a counter seen from above, 1.6 cm short of the
     floor), keeps its seen top, where its children stand, and gets a base under it instead. Within that, the
-    largest move its points explain as well as any allowed one is taken: the mesh comes down until its top
-    meets the seen top."""
+    allowed move takes the full snap's place: all of it when the points are explained there as well as at any
+    allowed height (the mesh comes down until its top meets the seen top), else the smallest move within
+    FIT_TIE of the best."""
     room = state.room
     obj = state.objects[child]
     verts = obj.world_vertices(full_pose)
