@@ -33,6 +33,7 @@ from rescene_core.paths import RunPaths
 from rescene_core.records import InstanceId, Missing, Ref, Stage
 from rescene_core.runlock import hold_run_directory
 from rescene_core.runlog import Segment
+from rescene_core.stages.dag import SPECS
 from rescene_core.stages.execution import capture_ref
 from rescene_core.stages.keyframes import keyframes_of
 from tasks import dag as T
@@ -81,9 +82,15 @@ def after_each(
     return [out[k] for k in range(len(upstream))]
 
 
-def _bind(task_, run: RunPaths):
-    """The task with this run's result storage (cache records live in the run directory)."""
-    return task_.with_options(result_storage=run.results, retry_delay_seconds=retry_delays(task_.retries))
+def _bind(task_, run: RunPaths, config: RunConfig):
+    """The task with this run's result storage (cache records live in the run directory), tagged ``gpu`` only
+    where the run's backend for the stage wants one (``StageSpec.wants_gpu``): every task run of a tagged task
+    asks the API for a slot of the tag's concurrency limit, even with no limit set, and a busy embedded
+    server answers that request with 503 and a 2 s back-off."""
+    bound = task_.with_options(result_storage=run.results, retry_delay_seconds=retry_delays(task_.retries))
+    if not SPECS[Stage(task_.name)].wants_gpu(config):
+        bound.tags = set()  # with_options keeps the old tags when given an empty set
+    return bound
 
 
 @flow(name="rescene", description="Multi-view capture -> simulation-ready object-level scene (ReScene).")
@@ -137,17 +144,19 @@ def _run_scene(
     capture_in = capture_ref(capture, verify_capture)
     # validation is cached on the capture's content hash: a bad capture fails here with every problem
     # listed; an unchanged one is not re-read
-    _bind(T.validate_capture, run)(capture_in)
+    _bind(T.validate_capture, run, config)(capture_in)
     cap = open_capture(capture, validate=False)
     ids = [int(i.id) for i in cap.object_instances]
     labels = {int(i.id): i.label for i in cap.object_instances}
     logger.info("capture %s: %d object instances, %d frames", cap.scene_id, len(ids), cap.num_frames)
 
-    shell_t, views_t, keyframes_t = (_bind(t, run) for t in (T.estimate_shell, T.select_views, T.select_keyframes))
-    asset_t, pose_t = (_bind(t, run) for t in (T.generate_asset, T.register_instance))
-    relations_t, fusion_t, snapshot_t, attach_t, export_t, evaluate_t = (_bind(t, run) for t in (
+    shell_t, views_t, keyframes_t = (
+        _bind(t, run, config) for t in (T.estimate_shell, T.select_views, T.select_keyframes)
+    )
+    asset_t, pose_t = (_bind(t, run, config) for t in (T.generate_asset, T.register_instance))
+    relations_t, fusion_t, snapshot_t, attach_t, export_t, evaluate_t = (_bind(t, run, config) for t in (
         T.predict_relations, T.fuse_graph, T.snapshot_registration, T.attach_layout, T.export, T.evaluate))  # fmt: skip
-    simcheck_t = _bind(T.simcheck, run)
+    simcheck_t = _bind(T.simcheck, run, config)
     rd, cr = unmapped(str(run.root)), unmapped(capture_in)
     rows: list[InstanceRow] = []
     stage_rows: list[StageRow] = []

@@ -76,6 +76,9 @@ class StageSpec:
     """Runs only when this says so for the run's config (None: always)."""
     gpu: bool = False
     """Calls a model backend that wants a GPU worker (its Prefect tasks are tagged ``gpu``)."""
+    gpu_when: Callable[[RunConfig], bool] | None = None
+    """For a ``gpu`` stage, whether the run's configured backend is one (None: always). A weight-free CPU
+    backend needs no GPU worker, and an untagged task asks the API for no concurrency slot."""
     retried: bool = True
     """Retried after a transient failure (validation is not: a capture that fails it stays failed)."""
 
@@ -87,6 +90,10 @@ class StageSpec:
     def enabled(self, config: RunConfig) -> bool:
         return self.when is None or self.when(config)
 
+    def wants_gpu(self, config: RunConfig) -> bool:
+        """Whether this run's tasks of the stage carry the ``gpu`` tag."""
+        return self.gpu and (self.gpu_when is None or self.gpu_when(config))
+
     def config_section(self, config: RunConfig) -> Any:
         """The section of ``config`` this stage reads (None when it reads none)."""
         return None if self.config is None else getattr(config, self.config)
@@ -96,6 +103,16 @@ def _simulate(config: RunConfig) -> bool:
     return config.export.simulation
 
 
+def _asset_model(config: RunConfig) -> bool:
+    """SAM 3D Objects wants a GPU; ``lift`` is a weight-free CPU backend."""
+    return config.assets.backend != "lift"
+
+
+def _relation_model(config: RunConfig) -> bool:
+    """A VLM endpoint is a GPU service; the ``geometric`` predictor is weight-free, on the CPU."""
+    return config.scenegraph.backend != "geometric"
+
+
 DAG: tuple[StageSpec, ...] = (
     StageSpec(Stage.VALIDATE, validate.run, "validated", ("rescene_core.capture",), writes="(checks the capture)",
               retried=False),
@@ -103,13 +120,14 @@ DAG: tuple[StageSpec, ...] = (
     StageSpec(Stage.VIEW, view.run, "views", ("rescene_core.hierview",), "hierview", record=ViewChoice,
               writes="instances/<id>/view.json"),
     StageSpec(Stage.ASSET, asset.run, "assets", ("rescene_core.assets",), "assets", over=("views", "view"),
-              writes="instances/<id>/asset.glb, asset.json", gpu=True),
+              writes="instances/<id>/asset.glb, asset.json", gpu=True, gpu_when=_asset_model),
     StageSpec(Stage.REGISTRATION, registration.run, "poses", ("rescene_core.registration", "rescene_core.assets"),
               "registration", over=("assets", "asset"), record=Pose, writes="instances/<id>/pose.json"),
     StageSpec(Stage.KEYFRAMES, keyframes.run, "keyframes", ("rescene_core.hierview",), "keyframes",
               writes="keyframes.json"),
     StageSpec(Stage.RELATIONS, relations.run, "predictions", ("rescene_core.scenegraph",), "scenegraph",
-              over=("frames", "frame"), writes="scenegraph/frames/<t>.json, <t>.png", gpu=True),
+              over=("frames", "frame"), writes="scenegraph/frames/<t>.json, <t>.png", gpu=True,
+              gpu_when=_relation_model),
     StageSpec(Stage.FUSION, fusion.run, "graph", ("rescene_core.scenegraph",), "scenegraph", record=SceneGraph,
               writes="scenegraph/graph.json, graph.png"),
     StageSpec(Stage.SNAPSHOT, snapshot.run, "snapshot", writes="after_registration.json"),
