@@ -21,7 +21,8 @@ in ``scene/export_report.json`` under the object.
   extent like a decomposition (a turned mesh's box reaches past it). The open side: the side opposite the
   one that backs onto a wall (faces it, within ``BACK_WALL_MAX`` of its plane and its segment); when two
   sides back onto walls (a corner) or none does, the free side facing the floor polygon's centre (into the
-  room); else (no room) the side nearest the children's centre.
+  room); else (no room) the side nearest the children's centre. A child inside standing on a shelf of the
+  mesh where the layout found no support plane keeps it as a board (``hollow.mesh_shelves``).
 * **Seats.** A child (and its children) stands where its parent's pieces may be: a convex piece fills the
   concavities of the part it covers (CoACD at threshold 0.05 fills dips of centimetres), a hollow shell's
   panels are its mesh's box (a generated shelf 8 cm deep under books 30 cm deep). The parent's pieces are

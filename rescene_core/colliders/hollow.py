@@ -12,11 +12,13 @@ import trimesh
 from numpy.typing import NDArray
 
 from rescene_core.colliders.pieces import (
+    BOARD_THICKNESS,
     WORLD_UP,
     Piece,
     PlacedMesh,
     Placement,
     clip_to_mesh,
+    hull_piece,
     is_solid,
     placement,
     slice_piece,
@@ -38,6 +40,48 @@ wall's segment (up to this far past its ends), backs onto it."""
 
 UPRIGHT_COS = float(np.cos(np.radians(10.0)))
 """A hollow shell needs an asset axis within 10 deg of the world's up."""
+
+
+SHELF_MATCH = 0.015
+"""A child inside a hollow parent whose bottom is within this height (m) of upward faces of the parent's mesh
+stands on that shelf of the mesh."""
+
+
+SUPPORT_MATCH = 0.03
+"""A child within this height (m) of a support plane of the layout stands on that plane's board (as
+``seats.SUPPORT_MATCH``)."""
+
+
+def mesh_shelves(place: Placement, bottoms: Sequence[float], skip: Sequence[float]) -> list[tuple[float, Piece]]:
+    """Boards (body frame) under children inside a hollow parent that stand on a shelf of its generated mesh:
+    for each child bottom in ``bottoms`` (world m) not within SUPPORT_MATCH of a height in ``skip`` (the layout's
+    support planes, which become boards of their own, and the bottom panel), the upward faces of the mesh
+    (normal within 10 deg of up) within SHELF_MATCH of it, as a board BOARD_THICKNESS thick under the hull of
+    their plan, its top at the child's bottom. Children on one shelf share its board. The shell's panels are
+    the mesh's box: a shelf the layout found no points of (a book stack on the mesh's middle shelf, cluttered
+    diagnostic seed 206) was lost with the decomposition, and what stood on it fell to the shelf below."""
+    world_v = place.world(place.vertices)
+    mesh = trimesh.Trimesh(world_v, place.faces, process=False)
+    up = mesh.face_normals[:, 2] > UPRIGHT_COS
+    if not up.any():
+        return []
+    face_z = world_v[place.faces[up]][:, :, 2].mean(axis=1)
+    corners = world_v[place.faces[up]]
+    out: list[tuple[float, Piece]] = []
+    for bottom in sorted(bottoms):
+        if any(abs(bottom - h) <= SUPPORT_MATCH for h in [*skip, *(h for h, _ in out)]):
+            continue
+        on = np.abs(face_z - bottom) <= SHELF_MATCH
+        if not on.any():
+            continue
+        plan = corners[on].reshape(-1, 3)[:, :2]
+        board = np.vstack(
+            [np.c_[plan, np.full(len(plan), bottom)], np.c_[plan, np.full(len(plan), bottom - BOARD_THICKNESS)]]
+        )
+        piece = hull_piece(place.body(board))
+        if piece is not None:
+            out.append((bottom, piece))
+    return out
 
 
 def within_pulled_sides(extra: list[Piece], shell: list[Piece], sides: dict[str, float]) -> list[Piece]:
@@ -82,13 +126,14 @@ def hollow_shell(
     lo, hi = place.vertices.min(axis=0), place.vertices.max(axis=0)
     horizontal = [a for a in range(3) if a != k]
     level = hi[k] if up[k] > 0 else -lo[k]
-    inside = []
+    inside, bottoms = [], []
     for child in children:
         cv = place.body(child.world(child.vertices))
         bottom = float(cv[:, k].min() if up[k] > 0 else -cv[:, k].max())
         overlaps = all(cv[:, a].min() < hi[a] and cv[:, a].max() > lo[a] for a in horizontal)
         if overlaps and bottom < level - INSIDE_MARGIN:
             inside.append(cv.mean(axis=0))
+            bottoms.append(float(child.world(child.vertices)[:, 2].min()))
     if not inside:
         return None
     if abs(up[k]) < UPRIGHT_COS:
@@ -179,6 +224,9 @@ def hollow_shell(
                 blo[a] = hi[a] - t[a]
             box = trimesh.creation.box(bounds=np.stack([blo, bhi]))
             pieces.append((np.asarray(box.vertices, np.float64), np.asarray(box.faces, np.int64)))
+    floor_panel = float(world_v[:, 2].min()) + float(t[k])
+    shelves = mesh_shelves(place, bottoms, [*inner, floor_panel])
+    pieces += [piece for _, piece in shelves]
     pieces, reach = clip_to_mesh(place, pieces)  # a turned mesh's box reaches past the mesh
     axis = "xyz"[open_side[0]]
     entry = {
@@ -187,6 +235,7 @@ def hollow_shell(
         "reason": reason,
         "panel_thickness_m": round(float(t.min()), 4),
         "inner_support_planes_m": [round(h, 4) for h in inner],
+        "shelves_from_mesh_m": [round(h, 4) for h, _ in shelves],
         "children_inside": len(inside),
         "clipped_to_extent_m": round(reach, 4),
         "pulled_out_of_walls_m": pulled,

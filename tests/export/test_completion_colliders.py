@@ -373,3 +373,29 @@ def test_a_flat_base_keeps_a_pot_standing_that_its_uneven_facets_tip(tmp_path):
     # nothing within the band: unchanged, no entry
     box = trimesh.creation.box(bounds=[[0, 0, 0], [0.5, 0.5, 0.5]])
     assert flat_base(_place(box), [(box.vertices, box.faces)])[1] is None
+
+
+def test_a_child_on_a_shelf_of_the_generated_mesh_keeps_that_shelf_in_the_hollow_shell(tmp_path):
+    # the shelf scene with one support plane (0.5 m, under the first book) and a board of the mesh itself at
+    # 1.1 m (world), which the layout found no points of, under a second book: the shell's panels are the
+    # mesh's box, so without a board there the second book falls to the first
+    objects, graph = shelf_scene(with_boards=False)
+    inner = trimesh.creation.box(bounds=[[-0.39, -0.165, 0.28], [0.39, 0.165, 0.30]])  # asset z = world z - 0.8
+    mesh = trimesh.util.concatenate([trimesh.creation.box(SHELF_EXTENTS), inner])
+    shelf = replace(
+        objects[0],
+        vertices=mesh.vertices,
+        faces=mesh.faces,
+        completions=(Completion(InstanceId(1), CompletionKind.SUPPORT_PLANE, _board(0.5), "test"),),
+    )
+    top_book = replace(
+        objects[1], instance=3, world_from_asset=sim3.sim3_from_parts(1.0, np.eye(3), [-0.1, SHELF_CENTRE[1], 1.225])
+    )
+    graph = SceneGraph((*graph.edges, Edge(InstanceId(3), Relation.RESTS_ON, InstanceId(1), 0.9)))
+    run = _export(tmp_path, [shelf, objects[1], top_book], graph)
+    report = json.loads((run / "scene" / "export_report.json").read_text())
+    entry = next(o for o in report["objects"] if o["instance"] == 1)["colliders_from_layout"]["hollow_shell"]
+    assert entry["inner_support_planes_m"] == [0.5] and entry["shelves_from_mesh_m"] == [pytest.approx(1.1)]
+    by_node = {o.node: o for o in simcheck_run(run, SimcheckConfig()).objects}
+    assert by_node["obj_3_book"].stable and by_node["obj_3_book"].translation < 0.01
+    assert by_node["obj_2_book"].stable
