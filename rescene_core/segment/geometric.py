@@ -15,6 +15,8 @@
    slender uprights standing under a broader region (fused table legs, a desk's side panels) join it;
    regions parted by creases alone join again when one lies within the other's bounds (shelves in a
    bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
+   A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
+   sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres).
    Wall superpoints stay wall unless their colour differs from the wall's or they stand proud of it, and
    hanging superpoints just off a wall's plane (a clock's rim and face) count with them; such a region
    hanging clear of the floor and ceiling with a sharp outline or a depth step is a flush object (a
