@@ -28,7 +28,14 @@ from numpy.typing import NDArray
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from rescene_core.assembly.evidence import level_pivot, levelling, points_in_box
+from rescene_core.assembly.evidence import (
+    LEVEL_REFIT_MIN_TILT_DEG,
+    level_pivot,
+    levelling,
+    points_in_box,
+    refit_horizontal,
+    registered_tilt_deg,
+)
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
@@ -461,6 +468,13 @@ def compile_support(
         shift = np.array([target.x - centroid.x, target.y - centroid.y])
         how = how if not obj.exact_shape else "centroid on face (footprint larger than face)"
     correction = translation([shift[0], shift[1], 0.0] + lift * room.up) @ correction
+    refit = None
+    if not obj.exact_shape and registered_tilt_deg(state, child) > LEVEL_REFIT_MIN_TILT_DEG:
+        # the levelled mesh is not the one registered on the points: its surface goes back onto them
+        refit = refit_horizontal(state, child, correction @ pose)
+        if refit is not None:
+            correction = translation(refit) @ correction
+            how += ", levelled surface fitted to the points"
     info = {
         "parent": int(parent),
         "level_height_m": level.height,
@@ -470,6 +484,8 @@ def compile_support(
         "horizontal_m": shift,
         "placement": how,
     }
+    if refit is not None:
+        info["refit_m"] = refit
     if board is not None:
         info["support_plane"] = evidence
     return correction, info

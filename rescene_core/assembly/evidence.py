@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
+import trimesh
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 from shapely.geometry import Point, Polygon
 
 from rescene_core.assembly.objects import footprint
@@ -310,3 +312,89 @@ def levelling(
     if obj.exact_shape:
         return level_correction(pose, up, pivot, np.radians(state.config.max_level_tilt_deg))
     return level_correction(pose, up, pivot, np.pi, candidates=(2,))
+
+
+LEVEL_REFIT_MIN_TILT_DEG = 10.0
+"""A generated asset levelled by more than this (deg) has its horizontal position fitted again to its observed
+points (``refit_horizontal``): the levelled mesh is not the registered one, and neither the point it was
+levelled about nor its registered box centre says where the levelled mesh's surface meets the points."""
+LEVEL_REFIT_MAX_SHIFT = 0.04
+"""Largest horizontal step (m) of that fit: it corrects where the levelled surface sits on the seen one, not
+where the object stands."""
+LEVEL_REFIT_MAX_PAIR = 0.05
+"""Observed points farther than this (m) from the levelled mesh's surface take no part in the fit (another
+object's points, or a part the generated mesh lacks)."""
+LEVEL_REFIT_ITERATIONS = 10
+"""Nearest-point iterations of the fit."""
+LEVEL_REFIT_SAMPLES = 4000
+"""Points sampled on the mesh's surface (area-weighted, fixed seed) that the observed points are paired with."""
+LEVEL_REFIT_MIN_GAIN = 0.001
+"""Smallest drop (m) of the points' mean distance to the surface (each capped at LEVEL_REFIT_MAX_PAIR) for the
+fitted step to be taken."""
+
+
+def refit_horizontal(state: LayoutState, i: InstanceId, pose: NDArray) -> NDArray[np.float64] | None:
+    """Horizontal step [3] (m, perpendicular to the room's up) moving generated object i at ``pose``
+    (world_from_asset [4, 4], after levelling and the rule's vertical placement) so that its mesh surface
+    best explains its observed points, or None (an exact shape, fewer than LEVEL_PIVOT_MIN_POINTS points in
+    its registered box, or no step lowering their mean distance to the surface by LEVEL_REFIT_MIN_GAIN).
+
+    Point-to-plane nearest-point iterations (a KD-tree over LEVEL_REFIT_SAMPLES points sampled on the
+    mesh's surface, each with its face's normal) restricted to the two horizontal directions, so the height the rule chose stays; pairs
+    farther than LEVEL_REFIT_MAX_PAIR are left out and the step is bounded by LEVEL_REFIT_MAX_SHIFT. The
+    points are those within SEEN_BOX_MARGIN of the registered mesh box (``points_in_box``), where the
+    capture saw them."""
+    obj = state.objects[i]
+    if obj.exact_shape or obj.points is None or len(obj.points) < LEVEL_PIVOT_MIN_POINTS:
+        return None
+    seen = points_in_box(obj)
+    if len(seen) < LEVEL_PIVOT_MIN_POINTS:
+        return None
+    mesh = obj.mesh()
+    pose = np.asarray(pose, dtype=np.float64)
+    samples, face = trimesh.sample.sample_surface(mesh, LEVEL_REFIT_SAMPLES, seed=0)
+    centres = apply(pose, np.asarray(samples, dtype=np.float64))
+    normals = np.asarray(mesh.face_normals, dtype=np.float64)[face] @ pose[:3, :3].T
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    tree = cKDTree(centres)
+    up = state.room.up
+    e1 = horizontal(np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0]), up)
+    e1 /= np.linalg.norm(e1)
+    basis = np.stack([e1, np.cross(up, e1)], axis=1)  # [3, 2]
+
+    def pairs(step: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """(distance [n], plane residual [n], pair normals [n, 3]) of the points against the mesh moved by step."""
+        dist, k = tree.query(seen - step)
+        residual = np.einsum("ij,ij->i", seen - step - centres[k], normals[k])
+        return dist, residual, normals[k]
+
+    def score(step: NDArray) -> float:
+        dist, residual, _ = pairs(step)
+        return float(np.mean(np.minimum(np.minimum(dist, np.abs(residual) + 1e-3), LEVEL_REFIT_MAX_PAIR)))
+
+    step = np.zeros(3)
+    for _ in range(LEVEL_REFIT_ITERATIONS):
+        dist, residual, n = pairs(step)
+        near = dist <= LEVEL_REFIT_MAX_PAIR
+        if near.sum() < LEVEL_PIVOT_MIN_POINTS:
+            break
+        a = n[near] @ basis  # [m, 2]: how a horizontal move of the mesh changes each residual (with a minus)
+        # ridge term: a direction no vertical face constrains (points only on a top) is not moved along
+        gram = a.T @ a + 1e-3 * len(a) * np.eye(2)
+        delta = np.linalg.solve(gram, a.T @ residual[near])
+        step = step + basis @ delta
+        length = float(np.linalg.norm(step))
+        if length > LEVEL_REFIT_MAX_SHIFT:
+            step *= LEVEL_REFIT_MAX_SHIFT / length
+        if float(np.linalg.norm(delta)) < 1e-4:
+            break
+    if score(np.zeros(3)) - score(step) < LEVEL_REFIT_MIN_GAIN:
+        return None
+    return step
+
+
+def registered_tilt_deg(state: LayoutState, i: InstanceId) -> float:
+    """Tilt (deg) levelling removes from object i at its registered pose (0 when it is not levelled): a rule
+    that seats an object already levelled by an earlier stage (a re-seat) still knows it was levelled."""
+    obj = state.objects[i]
+    return float(np.degrees(levelling(state, i, obj.world_from_asset, obj.world_vertices().mean(axis=0))[1]))

@@ -7,8 +7,9 @@ Together they can overshoot: a push of 4 cm per iteration ends a centimetre past
 book stack follows its bookshelf's push although its own points did not move. An object's registered place
 is evidence (it was registered on its own points); a correction beyond what its constraints need moves it
 away from that evidence. So after depenetration, per generated object with points (parents before children,
-``PASSES`` times), the horizontal step from its bounding-box centre to its registered one is tried
-whole and, for an object in contact with a wall, along that wall only: in each direction the whole step
+``PASSES`` times), the horizontal step from its bounding-box centre to its registered one (for a mesh
+resting on the floor or an object and levelled by more than ``evidence.LEVEL_REFIT_MIN_TILT_DEG``, the step fitting its levelled surface to its
+points, ``evidence.refit_horizontal``: the registered box is the tilted mesh's) is tried whole and, for an object in contact with a wall, along that wall only: in each direction the whole step
 when it keeps every constraint, else the longest fraction that does (bisection, ``SEARCH_STEPS``); of
 those, the one ending nearest the registered centre is taken. The constraints:
 
@@ -32,7 +33,13 @@ from shapely.geometry import Point
 
 from rescene_core.assembly.collision import CollisionWorld
 from rescene_core.assembly.compile_support import MIN_FACE_SHARE, support_levels
-from rescene_core.assembly.evidence import containment_footprint, polygon_excursion
+from rescene_core.assembly.evidence import (
+    LEVEL_REFIT_MIN_TILT_DEG,
+    containment_footprint,
+    polygon_excursion,
+    refit_horizontal,
+    registered_tilt_deg,
+)
 from rescene_core.assembly.refine import is_outside
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
@@ -100,9 +107,17 @@ def _supported(state: LayoutState, child: InstanceId) -> bool:
 def _directions(state: LayoutState, i: InstanceId, walls: list) -> list[NDArray[np.float64]]:
     """Candidate horizontal world steps [3] back to the registered centre: the whole step, then its part
     along each wall object i is in contact with."""
-    seen = state.objects[i].world_vertices()
-    target = 0.5 * (seen.min(axis=0) + seen.max(axis=0))
-    step = target - state.centre(i)
+    edge = state.forest.edges.get(i)
+    rests = edge is not None and edge.relation is Relation.RESTS_ON
+    if rests and registered_tilt_deg(state, i) > LEVEL_REFIT_MIN_TILT_DEG:
+        # levelled by a large tilt where it rests (the floor and support rules fit it to its points): the
+        # registered box is the tilted mesh's, not evidence of where the levelled one stands; its surface
+        # fitted to the points is (``evidence.refit_horizontal``)
+        refit = refit_horizontal(state, i, state.pose(i))
+        step = np.zeros(3) if refit is None else refit
+    else:
+        seen = state.objects[i].world_vertices()
+        step = 0.5 * (seen.min(axis=0) + seen.max(axis=0)) - state.centre(i)
     up = state.room.up
     step = step - (step @ up) * up
     directions = [step]

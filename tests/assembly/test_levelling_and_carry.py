@@ -90,3 +90,37 @@ def test_a_generated_child_registered_past_the_exact_shapes_limit_is_levelled_on
     assert final[2, 2] / np.linalg.norm(final[:3, 2]) > np.cos(np.radians(0.5))  # upright
     bottom = lamp.world_vertices(final)[:, 2].min()
     assert abs(bottom - 0.75) < 1e-6  # on the desk's top
+
+
+def test_a_generated_mesh_levelled_by_a_large_tilt_is_fitted_back_onto_its_points():
+    # a 0.3 x 0.3 x 0.4 m jar standing at (2.0, 2.5), seen from two sides (-y, -x) and from above; its generated
+    # mesh was registered 25 deg tilted about x and 2.5 cm off in x: levelled about the points' median, its box
+    # stays 2.5 cm off the faces the capture saw
+    rng = np.random.default_rng(2)
+    n = 600
+    front = np.c_[rng.uniform(-0.15, 0.15, n), np.full(n, -0.15), rng.uniform(0.0, 0.4, n)]
+    left = np.c_[np.full(n, -0.15), rng.uniform(-0.15, 0.15, n), rng.uniform(0.0, 0.4, n)]
+    top = np.c_[rng.uniform(-0.15, 0.15, n), rng.uniform(-0.15, 0.15, n), np.full(n, 0.4)]
+    points = apply(placed(2.0, 2.5), np.r_[front, left, top])
+    pivot = np.median(points, axis=0)
+    pose = rotation_about([np.radians(25.0), 0.0, 0.0], pivot) @ placed(2.025, 2.5)
+    jar = replace(box_object(1, "jar", (0.3, 0.3, 0.4), pose, exact_shape=False), points=points)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+
+    def centre_after(config: AttachmentConfig) -> np.ndarray:
+        layout = attach({InstanceId(1): jar}, graph, rect_room(), config)
+        final = jar.world_vertices(layout.world_from_asset[InstanceId(1)])
+        return 0.5 * (final.min(axis=0) + final.max(axis=0))
+
+    assert np.linalg.norm(centre_after(AttachmentConfig(stop_after="relations"))[:2] - [2.0, 2.5]) < 0.003
+    assert np.linalg.norm(centre_after(AttachmentConfig())[:2] - [2.0, 2.5]) < 0.003  # kept through every stage
+
+
+def test_a_mesh_registered_nearly_level_is_not_fitted_again():
+    # the same jar 5 deg over: levelled about its points, its horizontal place is the registration's
+    points = apply(placed(2.0, 2.5), np.c_[np.full(300, -0.15), np.linspace(-0.15, 0.15, 300), np.full(300, 0.2)])
+    pose = rotation_about([np.radians(5.0), 0.0, 0.0], np.median(points, axis=0)) @ placed(2.025, 2.5)
+    jar = replace(box_object(1, "jar", (0.3, 0.3, 0.4), pose, exact_shape=False), points=points)
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    layout = attach({InstanceId(1): jar}, graph, rect_room(), AttachmentConfig(stop_after="relations"))
+    assert not [op for op in layout.operations if "refit_m" in op.details]
