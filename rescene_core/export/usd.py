@@ -74,6 +74,18 @@ def _collider(prim, approximation: str) -> None:
     UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(approximation)
 
 
+def load_usd() -> None:
+    """Load OpenUSD's libraries (``pxr``) in the calling thread, once per process.
+
+    Call it before another thread of the process may be running numpy. Loading ``pxr`` runs the libraries'
+    static initialisers inside ``dlopen``, and they take the GIL (``TfPyLock``) while the loader's lock is
+    held; numpy, holding the GIL, takes the loader's lock to inspect its callers before it reuses a
+    temporary array (``check_callers``). The two threads then wait on each other for ever: a run's export,
+    writing the USD while the evaluation's metrics ran beside it (``rescene_core/stages/hooks.py``), hung
+    in ``write_usd``'s first import."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics  # noqa: F401
+
+
 def write_usd(
     path: Path,
     objects: list[ExportObject],

@@ -9,6 +9,7 @@ import json
 from rescene_core.capture import open_capture
 from rescene_core.export import ExportConfig, export_scene, placed_objects
 from rescene_core.export.simulation import export_simulation
+from rescene_core.export.usd import load_usd
 from rescene_core.io import hash_file, hash_tree, read_json
 from rescene_core.paths import RunPaths
 from rescene_core.records import Layout, Missing, Ref, SceneGraph, Stage
@@ -49,6 +50,7 @@ def run(
             extra={"scene_id": cap.scene_id, "capture": capture.path, "capture_sha256": capture.sha256},
         )
         if config.simulation:
+            load_usd()  # before anything runs beside the export: see load_usd
             hooks.visual_scene_written(str(run.root), capture.path)
             sim = export_simulation(run.scene, list(objects), shell_rec, graph_rec, all_missing, config)
             hashes.update({rel: hash_file(run.scene / rel) for rel in sim.files})
