@@ -290,6 +290,11 @@ def start_scene_metrics(run_dir: str | Path, capture: str | Path, config: Evalua
         shell = shell_meshes(doc.scene.shell, ExportConfig()) if doc.scene.shell is not None else {}
         return _scene_metrics(run_dir, placed_meshes(doc), shell, cap, gt, config)
 
+    # the native libraries the metrics load on first use are loaded here, in the calling thread, before the
+    # thread starts: loading one while another thread runs numpy can deadlock (rescene_core/export/usd.py:load_usd)
+    import open3d  # noqa: F401
+    from skimage.metrics import structural_similarity  # noqa: F401
+
     future: Future[SceneMetrics] = Future()
 
     def work() -> None:

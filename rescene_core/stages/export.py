@@ -51,6 +51,7 @@ def run(
         )
         if config.simulation:
             load_usd()  # before anything runs beside the export: see load_usd
+            _load_native_libraries()
             hooks.visual_scene_written(str(run.root), capture.path)
             sim = export_simulation(run.scene, list(objects), shell_rec, graph_rec, all_missing, config)
             hashes.update({rel: hash_file(run.scene / rel) for rel in sim.files})
@@ -65,3 +66,11 @@ def run(
 def scene_digest(hashes: dict[str, str]) -> str:
     """sha256 over every exported file's path and sha256 (``export_scene``'s return value)."""
     return hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()
+
+
+def _load_native_libraries() -> None:
+    """Load the other native libraries the simulation exports import on first use (MuJoCo for the MJCF and
+    the collider checks, Open3D for the decomposition's simplification) before work starts beside the export,
+    for the reason ``load_usd`` gives: a library loaded in one thread while another runs numpy can deadlock."""
+    import mujoco  # noqa: F401
+    import open3d  # noqa: F401
