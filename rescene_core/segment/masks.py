@@ -120,12 +120,44 @@ def consensus_regions(
     for a, b in g.pairs[ok].tolist():
         neighbours.setdefault(a, set()).add(b)
         neighbours.setdefault(b, set()).add(a)
+    root, joined = _merge_by_consensus(
+        state, neighbours, n, seen, share, cfg.consensus_min_frames, cfg.consensus_fraction
+    )
+    _, comp = np.unique(root, return_inverse=True)
+    region = np.where(masked, comp + 1, 0)
+    stats = {
+        "superpoints": int(n),
+        "contacts": int(len(g.pairs)),
+        "joined_by_consensus": int(joined),
+        "unseen_superpoints": int((voted == 0).sum()),
+        "unmasked_superpoints": int(((voted > 0) & ~masked).sum()),
+    }
+    return region, stats
+
+
+def _merge_by_consensus(
+    state: dict[int, _RegionVotes],
+    neighbours: dict[int, set[int]],
+    n: int,
+    seen: int,
+    share: float,
+    min_frames: int,
+    fraction: float,
+    size: tuple[NDArray[np.floating] | NDArray[np.integer], float] | None = None,
+) -> tuple[NDArray[np.int64], int]:
+    """Regions ``state`` (id -> its votes; ids below ``n``) merged agglomeratively along ``neighbours`` (id ->
+    ids it may join), the best agreeing pair first: a pair joins while, among at least ``min_frames`` frames
+    in which both cast a confident vote (``seen`` points, ``share`` of them), ``fraction`` give them the same
+    id. ``size``: (each id's points [n], the least either of a pair must have), when a pair of small regions
+    may not join. Both dicts are changed in place. Returns the root id of every id [n] and how many joined."""
     version = dict.fromkeys(state, 0)
     heap: list[tuple[float, int, int, int, int, int]] = []
 
     def push(a: int, b: int) -> None:
+        if size is not None and max(size[0][a], size[0][b]) < size[1]:
+            return
         both, same = _agreement(state[a], state[b])
-        if both >= cfg.consensus_min_frames and same >= cfg.consensus_fraction * both:
+        if both >= min_frames and same >= fraction * both:
             heapq.heappush(heap, (-same / both, -both, a, b, version[a], version[b]))
 
     for a, nb in neighbours.items():
@@ -142,6 +174,8 @@ def consensus_regions(
         del version[b]
         version[a] += 1
         parent[b] = a
+        if size is not None:
+            size[0][a] += size[0][b]
         joined += 1
         nb = (neighbours.pop(b, set()) | neighbours.get(a, set())) - {a, b}
         neighbours[a] = nb
@@ -149,22 +183,12 @@ def consensus_regions(
             neighbours[c].discard(b)
             neighbours[c].add(a)
             push(a, c)
-    root = parent.copy()
     for _ in range(64):
-        nxt = root[root]
-        if np.array_equal(nxt, root):
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
             break
-        root = nxt
-    _, comp = np.unique(root, return_inverse=True)
-    region = np.where(masked, comp + 1, 0)
-    stats = {
-        "superpoints": int(n),
-        "contacts": int(len(g.pairs)),
-        "joined_by_consensus": int(joined),
-        "unseen_superpoints": int((voted == 0).sum()),
-        "unmasked_superpoints": int(((voted > 0) & ~masked).sum()),
-    }
-    return region, stats
+        parent = nxt
+    return parent, joined
 
 
 def _region_gaps(sp: ScanPoints, region: NDArray[np.int64], gap: float) -> dict[int, set[int]]:
@@ -218,47 +242,13 @@ def bridge_gaps(
     state = {r_: _RegionVotes(x, seen, share) for r_, x in reads.items()}
     neighbours = {a: {b for b in nb if b in state} for a, nb in _region_gaps(sp, region, cfg.consensus_gap).items()}
     neighbours = {a: nb for a, nb in neighbours.items() if a in state}
-    version = dict.fromkeys(state, 0)
-    heap: list[tuple[float, int, int, int, int, int]] = []
-
     n = int(region.max(initial=0)) + 1
-    size = np.bincount(region, sp.graph.count, n)
-
-    def push(a: int, b: int) -> None:
-        if max(size[a], size[b]) < cfg.masks_min_segment_points:
-            return  # two fragments too small to be kept would make a fragment large enough to be kept
-        both, same = _agreement(state[a], state[b])
-        if both >= cfg.gap_min_frames and same >= cfg.gap_consensus_fraction * both:
-            heapq.heappush(heap, (-same / both, -both, a, b, version[a], version[b]))
-
-    for a, nb in neighbours.items():
-        for b in nb:
-            if a < b:
-                push(a, b)
-    parent = np.arange(n)
-    joined = 0
-    while heap:
-        _, _, a, b, va, vb = heapq.heappop(heap)
-        if version.get(a) != va or version.get(b) != vb:
-            continue
-        state[a] = state[a].merged(state.pop(b), seen, share)
-        del version[b]
-        version[a] += 1
-        parent[b] = a
-        size[a] += size[b]
-        joined += 1
-        nb = (neighbours.pop(b, set()) | neighbours.get(a, set())) - {a, b}
-        neighbours[a] = nb
-        for c in nb:
-            neighbours[c].discard(b)
-            neighbours[c].add(a)
-            push(a, c)
-    for _ in range(64):
-        nxt = parent[parent]
-        if np.array_equal(nxt, parent):
-            break
-        parent = nxt
-    return parent[region], joined
+    # two fragments too small to be kept would make a fragment large enough to be kept
+    size = (np.bincount(region, sp.graph.count, n), float(cfg.masks_min_segment_points))
+    root, joined = _merge_by_consensus(
+        state, neighbours, n, seen, share, cfg.gap_min_frames, cfg.gap_consensus_fraction, size
+    )
+    return root[region], joined
 
 
 def region_votes(
