@@ -16,13 +16,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rescene_core.assembly.evidence import (
-    LEVEL_REFIT_MIN_TILT_DEG,
     centre_inside_polygon,
     level_pivot,
+    levelled_refit,
     levelling,
     polygon_excursion,
-    refit_horizontal,
-    registered_tilt_deg,
 )
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
@@ -85,12 +83,11 @@ def compile_floor(state: LayoutState, child: InstanceId, edge: Edge) -> tuple[ND
         drop = float(np.clip(drop, -cfg.max_floor_snap, cfg.max_floor_snap))
     correction = translation(drop * room.up) @ correction
     info["vertical_m"] = drop
-    if not obj.exact_shape and registered_tilt_deg(state, child) > LEVEL_REFIT_MIN_TILT_DEG:
-        # the levelled mesh is not the one registered on the points: its surface goes back onto them
-        refit = refit_horizontal(state, child, correction @ pose)
-        if refit is not None:
-            correction = translation(refit) @ correction
-            info["refit_m"] = refit
+    # a mesh levelled by a large tilt is not the one registered on the points: its surface goes back onto them
+    refit = levelled_refit(state, child, correction @ pose)
+    if refit is not None:
+        correction = translation(refit) @ correction
+        info["refit_m"] = refit
     inner = inner_polygon(room, cfg.wall_contact_gap)
     if inner is not None:
         moved = apply(correction @ pose, obj.vertices)

@@ -29,12 +29,10 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
 from rescene_core.assembly.evidence import (
-    LEVEL_REFIT_MIN_TILT_DEG,
     level_pivot,
+    levelled_refit,
     levelling,
     points_in_box,
-    refit_horizontal,
-    registered_tilt_deg,
 )
 from rescene_core.assembly.objects import footprint
 from rescene_core.assembly.room import Room, fit_translation
@@ -468,13 +466,11 @@ def compile_support(
         shift = np.array([target.x - centroid.x, target.y - centroid.y])
         how = how if not obj.exact_shape else "centroid on face (footprint larger than face)"
     correction = translation([shift[0], shift[1], 0.0] + lift * room.up) @ correction
-    refit = None
-    if not obj.exact_shape and registered_tilt_deg(state, child) > LEVEL_REFIT_MIN_TILT_DEG:
-        # the levelled mesh is not the one registered on the points: its surface goes back onto them
-        refit = refit_horizontal(state, child, correction @ pose)
-        if refit is not None:
-            correction = translation(refit) @ correction
-            how += ", levelled surface fitted to the points"
+    # a mesh levelled by a large tilt is not the one registered on the points: its surface goes back onto them
+    refit = levelled_refit(state, child, correction @ pose)
+    if refit is not None:
+        correction = translation(refit) @ correction
+        how += ", levelled surface fitted to the points"
     info = {
         "parent": int(parent),
         "level_height_m": level.height,

@@ -393,6 +393,14 @@ def refit_horizontal(state: LayoutState, i: InstanceId, pose: NDArray) -> NDArra
     return step
 
 
+def levelled_refit(state: LayoutState, i: InstanceId, pose: NDArray) -> NDArray[np.float64] | None:
+    """``refit_horizontal`` of generated object i at ``pose`` when levelling removes more than
+    LEVEL_REFIT_MIN_TILT_DEG from its registered pose (the floor and support rules); None otherwise."""
+    if state.objects[i].exact_shape or registered_tilt_deg(state, i) <= LEVEL_REFIT_MIN_TILT_DEG:
+        return None
+    return refit_horizontal(state, i, pose)
+
+
 def registered_tilt_deg(state: LayoutState, i: InstanceId) -> float:
     """Tilt (deg) levelling removes from object i at its registered pose (0 when it is not levelled): a rule
     that seats an object already levelled by an earlier stage (a re-seat) still knows it was levelled."""

@@ -67,11 +67,11 @@ def flat_base(place: Placement, pieces: list[Piece]) -> tuple[list[Piece], dict[
     nothing moved by more than 0.01 mm)."""
     if not pieces:
         return pieces, None
-    zmin = min(float(place.world(v)[:, 2].min()) for v, _ in pieces)
+    worlds = [place.world(v) for v, _ in pieces]
+    zmin = min(float(w[:, 2].min()) for w in worlds)
     out: list[Piece] = []
     moved, deepest = 0, 0.0
-    for v, f in pieces:
-        world = place.world(v)
+    for (v, f), world in zip(pieces, worlds, strict=True):
         low = (world[:, 2] > zmin + 1e-5) & (world[:, 2] <= zmin + FLAT_BASE_BAND)
         hull = None
         if low.any():

@@ -23,6 +23,7 @@ from rescene_core.colliders.pieces import (
     placement,
     slice_piece,
 )
+from rescene_core.colliders.seats import SUPPORT_MATCH
 from rescene_core.records import CompletionKind, InstanceId, Relation, RoomShell, SceneGraph
 
 PANEL_THICKNESS = 0.02
@@ -47,11 +48,6 @@ SHELF_MATCH = 0.015
 stands on that shelf of the mesh."""
 
 
-SUPPORT_MATCH = 0.03
-"""A child within this height (m) of a support plane of the layout stands on that plane's board (as
-``seats.SUPPORT_MATCH``)."""
-
-
 def mesh_shelves(place: Placement, bottoms: Sequence[float], skip: Sequence[float]) -> list[tuple[float, Piece]]:
     """Boards (body frame) under children inside a hollow parent that stand on a shelf of its generated mesh:
     for each child bottom in ``bottoms`` (world m) not within SUPPORT_MATCH of a height in ``skip`` (the layout's
@@ -65,8 +61,8 @@ def mesh_shelves(place: Placement, bottoms: Sequence[float], skip: Sequence[floa
     up = mesh.face_normals[:, 2] > UPRIGHT_COS
     if not up.any():
         return []
-    face_z = world_v[place.faces[up]][:, :, 2].mean(axis=1)
     corners = world_v[place.faces[up]]
+    face_z = corners[:, :, 2].mean(axis=1)
     out: list[tuple[float, Piece]] = []
     for bottom in sorted(bottoms):
         if any(abs(bottom - h) <= SUPPORT_MATCH for h in [*skip, *(h for h, _ in out)]):
@@ -128,12 +124,13 @@ def hollow_shell(
     level = hi[k] if up[k] > 0 else -lo[k]
     inside, bottoms = [], []
     for child in children:
-        cv = place.body(child.world(child.vertices))
+        cw = child.world(child.vertices)
+        cv = place.body(cw)
         bottom = float(cv[:, k].min() if up[k] > 0 else -cv[:, k].max())
         overlaps = all(cv[:, a].min() < hi[a] and cv[:, a].max() > lo[a] for a in horizontal)
         if overlaps and bottom < level - INSIDE_MARGIN:
             inside.append(cv.mean(axis=0))
-            bottoms.append(float(child.world(child.vertices)[:, 2].min()))
+            bottoms.append(float(cw[:, 2].min()))
     if not inside:
         return None
     if abs(up[k]) < UPRIGHT_COS:

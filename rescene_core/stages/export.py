@@ -50,8 +50,7 @@ def run(
             extra={"scene_id": cap.scene_id, "capture": capture.path, "capture_sha256": capture.sha256},
         )
         if config.simulation:
-            load_usd()  # before anything runs beside the export: see load_usd
-            _load_native_libraries()
+            _load_native_libraries()  # before anything runs beside the export
             hooks.visual_scene_written(str(run.root), capture.path)
             sim = export_simulation(run.scene, list(objects), shell_rec, graph_rec, all_missing, config)
             hashes.update({rel: hash_file(run.scene / rel) for rel in sim.files})
@@ -69,8 +68,9 @@ def scene_digest(hashes: dict[str, str]) -> str:
 
 
 def _load_native_libraries() -> None:
-    """Load the other native libraries the simulation exports import on first use (MuJoCo for the MJCF and
+    """Load the native libraries the simulation exports import on first use (OpenUSD, MuJoCo for the MJCF and
     the collider checks, Open3D for the decomposition's simplification) before work starts beside the export,
     for the reason ``load_usd`` gives: a library loaded in one thread while another runs numpy can deadlock."""
+    load_usd()
     import mujoco  # noqa: F401
     import open3d  # noqa: F401
