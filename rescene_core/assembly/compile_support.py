@@ -34,7 +34,7 @@ from rescene_core.assembly.evidence import (
     levelling,
     points_in_box,
 )
-from rescene_core.assembly.objects import footprint
+from rescene_core.assembly.objects import AssemblyObject, footprint
 from rescene_core.assembly.room import Room, fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
@@ -257,14 +257,19 @@ was seen around the child (``level_seen_around``): a generated parent that is a 
 
 def level_seen_around(state: LayoutState, parent: InstanceId, child: InstanceId) -> float | None:
     """Height (m above the floor) of ``parent``'s surface the capture saw around ``child``'s registered
-    footprint at the child's registered bottom: the upper quartile of the heights of the parent's observed
-    points within LEVEL_REGION of the footprint and within LEVEL_BAND of the bottom, when there are at least
-    BOARD_MIN_POINTS of them and their horizontal hull reaches within EXTENSION_SEEN_MARGIN of the footprint's
-    centre; else None."""
-    pobj, room = state.objects[parent], state.room
+    footprint at the child's registered bottom (``surface_seen_around``); None without such evidence."""
+    return surface_seen_around(state.objects[parent], state.objects[child], state.room)
+
+
+def surface_seen_around(pobj: AssemblyObject, cobj: AssemblyObject, room: Room) -> float | None:
+    """Height (m above the floor) of parent ``pobj``'s surface the capture saw around child ``cobj``'s
+    registered footprint at the child's registered bottom: the upper quartile of the heights of the parent's
+    observed points within LEVEL_REGION of the footprint and within LEVEL_BAND of the bottom, when there are
+    at least BOARD_MIN_POINTS of them and their horizontal hull reaches within EXTENSION_SEEN_MARGIN of the
+    footprint's centre; else None."""
     if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
         return None
-    seen = state.objects[child].world_vertices()
+    seen = cobj.world_vertices()
     bottom = float(room.floor_distance(seen).min())
     pts = np.asarray(pobj.points, dtype=np.float64)
     heights = room.floor_distance(pts)
@@ -301,12 +306,17 @@ def seen_top_around(state: LayoutState, parent: InstanceId, child: InstanceId) -
     child's registered footprint than the window at it. Below a dense top the band at a low child's bottom
     holds the parent's front face, not a surface; the child's own bleed above a top is sparse. None without
     such evidence."""
-    around = level_seen_around(state, parent, child)
+    return top_seen_around(state.objects[parent], state.objects[child], state.room)
+
+
+def top_seen_around(pobj: AssemblyObject, cobj: AssemblyObject, room: Room) -> float | None:
+    """``seen_top_around`` for parent ``pobj`` and child ``cobj`` at their registered poses in ``room``."""
+    around = surface_seen_around(pobj, cobj, room)
     if around is None:
         return None
-    pts = np.asarray(state.objects[parent].points, dtype=np.float64)
-    fp = footprint(state.objects[child].world_vertices()).buffer(LEVEL_REGION)
-    heights = np.sort(state.room.floor_distance(pts[shapely.contains_xy(fp, pts[:, 0], pts[:, 1])]))
+    pts = np.asarray(pobj.points, dtype=np.float64)
+    fp = footprint(cobj.world_vertices()).buffer(LEVEL_REGION)
+    heights = np.sort(room.floor_distance(pts[shapely.contains_xy(fp, pts[:, 0], pts[:, 1])]))
     window = np.searchsorted(heights, heights + SURFACE_HALF_BAND, side="right") - np.searchsorted(
         heights, heights - SURFACE_HALF_BAND, side="left"
     )
@@ -423,7 +433,11 @@ def compile_support(
         # the generated face a few millimetres or more from the top the parent's points show around the child
         # (an island's completion 1 cm above its seen worktop, a counter's top lowered with a mesh too short
         # for it): the child stands where the top was seen
-        top = seen_top_around(state, parent, child)
+        # a child cut where it met that top before the rules (``trim.seat_cuts``) stands on it: estimated again
+        # at the cut mesh's bottom, the band above the surface holds the child's own bleed
+        top = state.seen_seats.get(child)
+        if top is None:
+            top = seen_top_around(state, parent, child)
         if top is not None and abs(level.height - top) > SEEN_TOP_MARGIN and abs(top - seen_bottom) < off_by:
             plane = plane_at(state, parent, child, top, "the parent's top seen around the child")
             if plane is not None:

@@ -15,7 +15,8 @@ are left to depenetration).
 
 Back side of a generated asset: its dominant vertical face direction, or, when another side (a horizontal
 asset axis more than 10 deg from it) put on the wall explains clearly more of its observed points, that
-side (``rescene_core.assembly.wall_evidence``); points far off the wall refuse the rule.
+side (``rescene_core.assembly.wall_evidence``); points far off the wall, or lying flat on another object
+(``lies_on_a_support``), refuse the rule.
 
 Closed-form minimiser: level (as for the floor), yaw the back axis onto the outward normal, translate
 along the normal until the back surface lies on the plane, translate along the wall to the lateral target,
@@ -46,7 +47,7 @@ from rescene_core.assembly.transforms import (
     signed_yaw,
     translation,
 )
-from rescene_core.assembly.wall_evidence import points_off_wall, wall_side_yaw
+from rescene_core.assembly.wall_evidence import lies_on_a_support, points_off_wall, wall_side_yaw
 from rescene_core.geometry.sim3 import apply
 from rescene_core.records import Edge, InstanceId, Relation, Root
 
@@ -168,7 +169,9 @@ def compile_wall(
         return None, {"reason": "no wall resolved for this edge"}
     cfg, room, wall = state.config, state.room, plan.wall
     obj = state.objects[child]
-    contradiction = points_off_wall(obj, wall, cfg.wall_points_max_gap)
+    contradiction = points_off_wall(obj, wall, cfg.wall_points_max_gap) or lies_on_a_support(
+        state.objects, child, wall, room
+    )
     if contradiction is not None:
         return None, {"reason": contradiction}
     pose = state.pose(child)

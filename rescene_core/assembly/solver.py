@@ -223,14 +223,15 @@ def attach(objects: dict[int, AssemblyObject], graph: SceneGraph, shell: RoomShe
     cuts = {i: room_cuts(obj, room) for i, obj in valid.items()} if config.trim_completions else {}
     valid = {i: trimmed(obj, cuts.get(i, [])) for i, obj in valid.items()}
     forest = build_forest(graph, set(valid))
+    seats: dict[InstanceId, float] = {}
     if config.trim_completions:
         for i, cut in top_cuts(valid, forest, room).items():
             cuts.setdefault(i, []).append(cut)
             valid[i] = trimmed(valid[i], [cut])
-        for i, seat in seat_cuts(valid, forest, room).items():
+        for i, seat in seat_cuts(valid, forest, room, seats).items():
             cuts.setdefault(i, []).extend(seat)
             valid[i] = trimmed(valid[i], seat)
-    base = LayoutState(valid, forest, room, config)
+    base = LayoutState(valid, forest, room, config, seen_seats=seats)
     for i, info in turned:
         base.log(i, "wall evidence", "turn onto the side its points show", **info)
     for i in sorted(cuts):

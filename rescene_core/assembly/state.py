@@ -61,6 +61,9 @@ class LayoutState:
     """Objects mounted on a wall whose wall correction the evidence refused (a generated mesh that is the front
     of a wall cabinet seen from below, its back never seen): the wall and the reason; they get a base back to
     that wall when their points reach it (completions.add_wall_bases)."""
+    seen_seats: dict[InstanceId, float] = field(default_factory=dict)
+    """Generated children whose mesh was cut at the top their support was seen with around them
+    (``trim.seat_cuts``): that top's height (m above the floor), where the support rule seats them."""
     _cache: dict[InstanceId, tuple[int, NDArray[np.float64]]] = field(default_factory=dict)
     _version: dict[InstanceId, int] = field(default_factory=dict)
     _anchor: dict[InstanceId, NDArray[np.float64]] = field(default_factory=dict)
@@ -85,6 +88,7 @@ class LayoutState:
             dict(self.base_wanted),
             dict(self.support_base_wanted),
             dict(self.wall_base_wanted),
+            dict(self.seen_seats),
         )
 
     def add_completion(self, completion: Completion) -> None:

@@ -183,13 +183,31 @@ SEAT_REACH = 0.03
 their heights) lies within this distance (m) of its parent's surface seen around it (SEAT_AROUND)."""
 SEAT_AROUND = 0.05
 """How far (m) around a child's footprint its parent's points show the surface it stands on."""
+SEAT_SINK_MIN = 0.005
+"""A generated child's mesh reaching at least this far (m) into the top its support was seen with around it
+is cut at that top (``seat_cuts``); less is depth noise and marching-cubes steps (as
+``compile_support.SEEN_TOP_MARGIN``)."""
+SEAT_SINK_MAX_POINTS = 0.2
+"""... unless more than this share of the child's points (within ``evidence.SEEN_BOX_MARGIN`` of its mesh box)
+lie below that top: bleed of the top at the child's foot and depth noise are 2-16 % on egocentric diagnostic
+seeds 205-206; a bowl generated as a disc at its rim had 22 % below the layer its own points make in its
+parent's."""
+
+
+def _tilt_deg(obj: AssemblyObject, room: Room) -> float:
+    """Angle (deg) between a generated asset's +z axis at its registered pose and the floor normal."""
+    z = np.asarray(obj.world_from_asset, np.float64)[:3, 2]
+    return float(np.degrees(np.arccos(np.clip(float(z @ room.up) / float(np.linalg.norm(z)), -1.0, 1.0))))
 
 
 def seat_cuts(
-    objects: dict[InstanceId, AssemblyObject], forest: Forest, room: Room
+    objects: dict[InstanceId, AssemblyObject],
+    forest: Forest,
+    room: Room,
+    seats: dict[InstanceId, float] | None = None,
 ) -> dict[InstanceId, list[Completion]]:
     """Cuts of generated children resting on objects whose mesh reaches below where their points show them
-    standing, at the registered poses.
+    standing, or into the top their support was seen with around them, at the registered poses.
 
     A single-view completion of a small object is often taller than it (egocentric diagnostic seeds 201 and
     203: cups, jars and cutting boards 1-8 cm taller), registered on its points with the surplus below the
@@ -198,9 +216,27 @@ def seat_cuts(
     ``evidence.SEEN_BOX_MARGIN`` of its mesh box) reach down to within SEAT_REACH of its parent's surface (at
     least MIN_POINTS of the parent's points within SEAT_AROUND of its footprint at that height: the bottom
     was seen where the parent was seen, not only a rim or a top; the parent's mesh may still be tilted or
-    off) and its mesh reaches more than TRIM_MARGIN below them, the mesh is cut at the points' reach, keeping the side above; not when the cut would keep less than
-    MIN_KEPT_SHARE of its height. Returns child -> ``cut`` completion (asset frame)."""
-    from rescene_core.assembly.evidence import points_in_box
+    off) and its mesh reaches more than TRIM_MARGIN below them, the mesh is cut at the points' reach, keeping
+    the side above; not when the cut would keep less than MIN_KEPT_SHARE of its height.
+
+    *Into the seen top* (``SEAT_SINK_MIN``): otherwise, when the top the parent's points show around the
+    child (``compile_support.top_seen_around``: a dense surface at the child's bottom, no denser layer above
+    it) lies at least SEAT_SINK_MIN and at most SEAT_REACH above the child's mesh bottom, the mesh is cut at
+    that top: nothing of the child can have been seen inside its support, so the part below the surface is
+    the generator's surplus, and the support rule would lift the object by it (egocentric diagnostic seeds
+    204-207: cups, jars and cutting boards registered 5-14 mm into their counter or island, lifted as much,
+    their centre error 0.004-0.009 -> 0.010-0.017 m; the child's lowest points are the parent's bleed, so the
+    cut above does not see it). Not for a child registered more than ``evidence.LEVEL_REFIT_MIN_TILT_DEG``
+    tilted (a horizontal plane cuts a wedge off a tilted mesh, not its bottom: the rules level it first), nor
+    when more than SEAT_SINK_MAX_POINTS of its points lie below that top (the surface is the child's own: a
+    bowl generated as a disc at its rim).
+
+    Either way the mesh is also cut at the points' upper reach when it reaches more than TRIM_MARGIN above
+    it. Returns child -> ``cut`` completions (asset frame); ``seats``, when given, receives child -> the seen
+    top (m above the floor) of each child cut into it, where the support rule seats it
+    (``LayoutState.seen_seats``)."""
+    from rescene_core.assembly.compile_support import top_seen_around
+    from rescene_core.assembly.evidence import LEVEL_REFIT_MIN_TILT_DEG, points_in_box
     from rescene_core.assembly.objects import footprint
 
     out = {}
@@ -216,33 +252,47 @@ def seat_cuts(
         seen = points_in_box(obj)
         if len(seen) < MIN_POINTS:
             continue
+        parent = objects[InstanceId(edge.parent)]
+        if parent.points is None or len(parent.points) < MIN_POINTS:
+            continue
         verts = obj.world_vertices()
         heights = room.floor_distance(verts)
         low, top = float(heights.min()), float(heights.max())
         reach = float(np.percentile(room.floor_distance(seen), POINTS_REACH_PERCENTILE))
-        if reach - low <= TRIM_MARGIN or top - reach < MIN_KEPT_SHARE * (top - low):
+        seat = None
+        if reach - low > TRIM_MARGIN and top - reach >= MIN_KEPT_SHARE * (top - low):
+            around = footprint(verts).buffer(SEAT_AROUND)
+            pts = np.asarray(parent.points, np.float64)
+            pts = pts[shapely.contains_xy(around, pts[:, 0], pts[:, 1])]
+            # the parent's surface seen there: else the points may show only a rim or a top
+            if int(np.count_nonzero(np.abs(room.floor_distance(pts) - reach) <= SEAT_REACH)) >= MIN_POINTS:
+                seat = (
+                    reach,
+                    f"the generated mesh reaches {reach - low:.3f} m below where its points show it standing on its "
+                    "support: cut there",
+                )
+        if seat is None and _tilt_deg(obj, room) <= LEVEL_REFIT_MIN_TILT_DEG:
+            surface = top_seen_around(parent, obj, room)
+            if (
+                surface is not None
+                and SEAT_SINK_MIN <= surface - low <= SEAT_REACH
+                and top - surface >= MIN_KEPT_SHARE * (top - low)
+                and float(np.mean(room.floor_distance(seen) < surface)) <= SEAT_SINK_MAX_POINTS
+            ):
+                seat = (
+                    surface,
+                    f"the generated mesh reaches {surface - low:.3f} m into the top its support was seen with "
+                    "around it: cut there",
+                )
+                if seats is not None:
+                    seats[child] = surface
+        if seat is None:
             continue
-        parent = objects[InstanceId(edge.parent)]
-        if parent.points is None or len(parent.points) < MIN_POINTS:
-            continue
-        around = footprint(verts).buffer(SEAT_AROUND)
-        pts = np.asarray(parent.points, np.float64)
-        pts = pts[shapely.contains_xy(around, pts[:, 0], pts[:, 1])]
-        if int(np.count_nonzero(np.abs(room.floor_distance(pts) - reach) <= SEAT_REACH)) < MIN_POINTS:
-            continue  # the parent's surface was not seen there: the points may show only a rim or a top
-        origin = verts[int(np.argmin(heights))] + (reach - low) * room.up
-        cuts = [
-            cut_plane(
-                child,
-                obj.world_from_asset,
-                origin,
-                room.up,
-                f"the generated mesh reaches {reach - low:.3f} m below where its points show it standing on its "
-                "support: cut there",
-            )
-        ]
+        level, source = seat
+        origin = verts[int(np.argmin(heights))] + (level - low) * room.up
+        cuts = [cut_plane(child, obj.world_from_asset, origin, room.up, source)]
         upper = float(np.percentile(room.floor_distance(seen), 100.0 - POINTS_REACH_PERCENTILE))
-        if top - upper > TRIM_MARGIN and upper - reach >= MIN_KEPT_SHARE * (top - low):
+        if top - upper > TRIM_MARGIN and upper - level >= MIN_KEPT_SHARE * (top - low):
             # seen from its bottom up, the object ends where its points end
             origin = verts[int(np.argmax(heights))] - (top - upper) * room.up
             source = (

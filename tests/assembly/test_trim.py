@@ -130,16 +130,19 @@ def test_points_far_behind_a_wall_are_strays_and_the_completion_is_cut_near_the_
     assert layout.world_from_asset[InstanceId(1)][1, 3] - cabinet.world_from_asset[1, 3] <= 0.021
 
 
-def _counter_and_cup(cup_points_low: float):
+def _counter_and_cup(cup_points_low: float, cup_bottom: float = 0.87, counter_height: float = 0.9):
     """A generated counter 0.9 m tall seen from above (points on its top) and a cup 0.08 m tall on it whose
-    generated mesh is 0.14 m tall, registered on the cup's points with 0.03 m of surplus below and above;
-    the cup's points reach down to ``cup_points_low`` m."""
+    generated mesh is 0.14 m tall, registered with its bottom at ``cup_bottom`` m (by default with 0.03 m of
+    surplus below and above the cup's points); the cup's points reach down to ``cup_points_low`` m. The
+    counter's generated mesh is ``counter_height`` m tall."""
     rng = np.random.default_rng(3)
     top = np.c_[rng.uniform(1.5, 2.5, 2000), rng.uniform(2.2, 2.8, 2000), rng.normal(0.9, 0.002, 2000)]
-    counter = replace(box_object(1, "counter", (1.0, 0.6, 0.9), placed(2.0, 2.5), exact_shape=False), points=top)
+    counter = replace(box_object(1, "counter", (1.0, 0.6, counter_height), placed(2.0, 2.5), exact_shape=False), points=top)
     ring = rng.uniform(0.0, 2.0 * np.pi, 600)
     side = np.c_[2.0 + 0.04 * np.cos(ring), 2.5 + 0.04 * np.sin(ring), rng.uniform(cup_points_low, 0.98, 600)]
-    cup = replace(box_object(2, "cup", (0.08, 0.08, 0.14), placed(2.0, 2.5, 0.87), exact_shape=False), points=side)
+    cup = replace(
+        box_object(2, "cup", (0.08, 0.08, 0.14), placed(2.0, 2.5, cup_bottom), exact_shape=False), points=side
+    )
     graph = SceneGraph(
         (
             Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
@@ -165,5 +168,29 @@ def test_a_childs_completion_taller_than_its_points_is_cut_where_they_end_and_se
 def test_a_child_seen_only_above_its_support_is_not_cut():
     # the cup's points end 5 cm above the counter (its rim seen over a bowl in front): its bottom was not seen
     objects, graph = _counter_and_cup(0.95)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    assert not [c for c in layout.completions().get(InstanceId(2), []) if c.kind is CompletionKind.CUT]
+
+
+def test_a_childs_completion_registered_into_its_supports_seen_top_is_cut_there_not_lifted():
+    # the mesh reaches 1 cm into the counter's top, seen at 0.90 m; the cup's lowest points are the counter's
+    # bleed (down to 0.89 m), so they do not show where its bottom ends, but nothing inside the counter can
+    # have been seen: the surplus is cut at the seen top and the cup keeps its registered height
+    objects, graph = _counter_and_cup(0.89, cup_bottom=0.89)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    cuts = [c for c in layout.completions()[InstanceId(2)] if c.kind is CompletionKind.CUT]
+    assert any("into the top its support was seen with" in c.source for c in cuts)
+    cup = visual_objects(objects, layout)[InstanceId(2)].world_vertices(layout.world_from_asset[InstanceId(2)])
+    assert abs(cup[:, 2].min() - 0.9) < 0.004  # on the seen top, not lifted 1 cm
+    assert abs(cup[:, 2].max() - 0.98) < 0.005  # and ending where its points end
+    metrics = structural_metrics(metric_objects(objects, layout), layout, graph, rect_room())
+    assert metrics["support_contact_pass"] == 1.0
+    # the counter's completion 7 mm above its seen top: the cup stands on the top where its mesh was cut
+    objects, graph = _counter_and_cup(0.89, cup_bottom=0.89, counter_height=0.907)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    cup = visual_objects(objects, layout)[InstanceId(2)].world_vertices(layout.world_from_asset[InstanceId(2)])
+    assert abs(cup[:, 2].min() - 0.9) < 0.003
+    # a few millimetres into the top is depth noise: no cut, the support rule seats it
+    objects, graph = _counter_and_cup(0.897, cup_bottom=0.897)
     layout = attach(objects, graph, rect_room(), AttachmentConfig())
     assert not [c for c in layout.completions().get(InstanceId(2), []) if c.kind is CompletionKind.CUT]

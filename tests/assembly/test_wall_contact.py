@@ -157,3 +157,38 @@ def test_a_shelf_registered_rolled_about_its_long_axis_is_levelled_by_its_own_up
     ok, angle = _wall_pass(objects, graph, shell, AttachmentConfig())
     assert ok and angle < 1.0
     assert abs(np.ptp(obj.world_vertices(pose)[:, 2]) - 0.18) < 1e-6  # its own height, not a 48 deg diagonal
+
+
+def _board_on_counter(rng, upright: bool):
+    """A cutting board 0.4 x 0.24 m at x = 2 whose back edge is 3 cm off wall 0, on a counter 0.9 m tall seen
+    from above against that wall, answered ``mounts-on wall``: lying flat (2 cm tall) on the counter's top,
+    or standing upright on it (0.24 m tall, 2 cm deep)."""
+    worktop = np.c_[rng.uniform(1.5, 2.5, 3000), rng.uniform(0.0, 0.6, 3000), 0.9 + rng.normal(0.0, 0.001, 3000)]
+    counter = box_object(1, "kitchen counter", (1.0, 0.6, 0.9), placed(2.0, 0.3), exact_shape=False)
+    counter = replace(counter, points=worktop)
+    size = (0.4, 0.02, 0.24) if upright else (0.4, 0.24, 0.02)
+    board = box_object(2, "cutting board", size, placed(2.0, 0.03 + size[1] / 2, 0.9), exact_shape=False)
+    lo = np.array([1.8, 0.03, 0.9])
+    board = replace(board, points=lo + rng.uniform(0.0, 1.0, (1500, 3)) * np.array(size))
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.MOUNTS_ON, Root.WALL, 0.73, wall_id=0),
+        )
+    )
+    return {InstanceId(1): counter, InstanceId(2): board}, graph
+
+
+def test_a_board_lying_flat_on_a_counter_is_not_pulled_onto_the_wall_and_an_upright_one_is():
+    rng = np.random.default_rng(5)
+    objects, graph = _board_on_counter(rng, upright=False)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    moved = layout.world_from_asset[InstanceId(2)][:3, 3] - objects[InstanceId(2)].world_from_asset[:3, 3]
+    assert np.linalg.norm(moved) < 1e-9  # it lies where it was seen
+    skips = [op for op in layout.operations if op["instance"] == 2 and op["rule"] == "skip"]
+    assert any("lie flat" in str(op["reason"]) and "object 1" in str(op["reason"]) for op in skips)
+    # standing on its edge against the backsplash, it leans on the wall: mounted there
+    objects, graph = _board_on_counter(rng, upright=True)
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    board = objects[InstanceId(2)].world_vertices(layout.world_from_asset[InstanceId(2)])
+    assert board[:, 1].min() < 0.005
