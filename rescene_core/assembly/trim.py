@@ -194,10 +194,24 @@ seeds 205-206; a bowl generated as a disc at its rim had 22 % below the layer it
 parent's."""
 
 
-def _tilt_deg(obj: AssemblyObject, room: Room) -> float:
-    """Angle (deg) between a generated asset's +z axis at its registered pose and the floor normal."""
-    z = np.asarray(obj.world_from_asset, np.float64)[:3, 2]
-    return float(np.degrees(np.arccos(np.clip(float(z @ room.up) / float(np.linalg.norm(z)), -1.0, 1.0))))
+def levelled_for_seat(obj: AssemblyObject, seen: NDArray, room: Room) -> AssemblyObject:
+    """``obj`` as the rules will stand it when it was registered more than ``evidence.LEVEL_REFIT_MIN_TILT_DEG``
+    tilted: its +z axis turned onto the floor normal about the median of its points ``seen`` [k, 3] (its
+    bounding-box centre with fewer than ``evidence.LEVEL_PIVOT_MIN_POINTS``), as ``evidence.levelling`` turns a
+    generated asset about ``evidence.level_pivot``; else ``obj`` itself. A horizontal plane through a tilted
+    mesh cuts a wedge off it, not its bottom."""
+    from rescene_core.assembly.evidence import LEVEL_PIVOT_MIN_POINTS, LEVEL_REFIT_MIN_TILT_DEG
+    from rescene_core.assembly.transforms import level_correction
+
+    pose = np.asarray(obj.world_from_asset, np.float64)
+    z = pose[:3, 2]
+    tilt = float(np.degrees(np.arccos(np.clip(float(z @ room.up) / float(np.linalg.norm(z)), -1.0, 1.0))))
+    if tilt <= LEVEL_REFIT_MIN_TILT_DEG:
+        return obj
+    verts = obj.world_vertices()
+    pivot = np.median(seen, axis=0) if len(seen) >= LEVEL_PIVOT_MIN_POINTS else 0.5 * (verts.min(0) + verts.max(0))
+    correction, _ = level_correction(pose, room.up, pivot, np.pi, candidates=(2,))
+    return replace(obj, world_from_asset=correction @ pose)
 
 
 def seat_cuts(
@@ -226,17 +240,20 @@ def seat_cuts(
     the generator's surplus, and the support rule would lift the object by it (egocentric diagnostic seeds
     204-207: cups, jars and cutting boards registered 5-14 mm into their counter or island, lifted as much,
     their centre error 0.004-0.009 -> 0.010-0.017 m; the child's lowest points are the parent's bleed, so the
-    cut above does not see it). Not for a child registered more than ``evidence.LEVEL_REFIT_MIN_TILT_DEG``
-    tilted (a horizontal plane cuts a wedge off a tilted mesh, not its bottom: the rules level it first), nor
-    when more than SEAT_SINK_MAX_POINTS of its points lie below that top (the surface is the child's own: a
-    bowl generated as a disc at its rim).
+    cut above does not see it). Not when more than SEAT_SINK_MAX_POINTS of its points lie below that top (the
+    surface is the child's own: a bowl generated as a disc at its rim).
+
+    A child registered more than ``evidence.LEVEL_REFIT_MIN_TILT_DEG`` tilted is cut as the rules will stand
+    it, levelled about its seen points (``levelled_for_seat``): a horizontal plane through the tilted mesh
+    would cut a wedge off it, and once levelled its too tall completion stood on its support (spice jars
+    registered 30-40 deg tilted on egocentric diagnostic seeds 205-206, their centre 1-3 cm above the truth).
 
     Either way the mesh is also cut at the points' upper reach when it reaches more than TRIM_MARGIN above
     it. Returns child -> ``cut`` completions (asset frame); ``seats``, when given, receives child -> the seen
     top (m above the floor) of each child cut into it, where the support rule seats it
     (``LayoutState.seen_seats``)."""
     from rescene_core.assembly.compile_support import top_seen_around
-    from rescene_core.assembly.evidence import LEVEL_REFIT_MIN_TILT_DEG, points_in_box
+    from rescene_core.assembly.evidence import points_in_box
     from rescene_core.assembly.objects import footprint
 
     out = {}
@@ -255,7 +272,9 @@ def seat_cuts(
         parent = objects[InstanceId(edge.parent)]
         if parent.points is None or len(parent.points) < MIN_POINTS:
             continue
-        verts = obj.world_vertices()
+        # a child registered tilted is cut where the rules will stand it: levelled about its seen points
+        at = levelled_for_seat(obj, seen, room)
+        verts = at.world_vertices()
         heights = room.floor_distance(verts)
         low, top = float(heights.min()), float(heights.max())
         reach = float(np.percentile(room.floor_distance(seen), POINTS_REACH_PERCENTILE))
@@ -271,8 +290,8 @@ def seat_cuts(
                     f"the generated mesh reaches {reach - low:.3f} m below where its points show it standing on its "
                     "support: cut there",
                 )
-        if seat is None and _tilt_deg(obj, room) <= LEVEL_REFIT_MIN_TILT_DEG:
-            surface = top_seen_around(parent, obj, room)
+        if seat is None:
+            surface = top_seen_around(parent, at, room)
             if (
                 surface is not None
                 and SEAT_SINK_MIN <= surface - low <= SEAT_REACH
@@ -290,7 +309,7 @@ def seat_cuts(
             continue
         level, source = seat
         origin = verts[int(np.argmin(heights))] + (level - low) * room.up
-        cuts = [cut_plane(child, obj.world_from_asset, origin, room.up, source)]
+        cuts = [cut_plane(child, at.world_from_asset, origin, room.up, source)]
         upper = float(np.percentile(room.floor_distance(seen), 100.0 - POINTS_REACH_PERCENTILE))
         if top - upper > TRIM_MARGIN and upper - level >= MIN_KEPT_SHARE * (top - low):
             # seen from its bottom up, the object ends where its points end
@@ -298,7 +317,7 @@ def seat_cuts(
             source = (
                 f"the generated mesh reaches {top - upper:.3f} m above its points, seen down to its support: cut there"
             )
-            cuts.append(cut_plane(child, obj.world_from_asset, origin, -room.up, source))
+            cuts.append(cut_plane(child, at.world_from_asset, origin, -room.up, source))
         out[child] = cuts
     return out
 

@@ -137,7 +137,9 @@ def _counter_and_cup(cup_points_low: float, cup_bottom: float = 0.87, counter_he
     counter's generated mesh is ``counter_height`` m tall."""
     rng = np.random.default_rng(3)
     top = np.c_[rng.uniform(1.5, 2.5, 2000), rng.uniform(2.2, 2.8, 2000), rng.normal(0.9, 0.002, 2000)]
-    counter = replace(box_object(1, "counter", (1.0, 0.6, counter_height), placed(2.0, 2.5), exact_shape=False), points=top)
+    counter = replace(
+        box_object(1, "counter", (1.0, 0.6, counter_height), placed(2.0, 2.5), exact_shape=False), points=top
+    )
     ring = rng.uniform(0.0, 2.0 * np.pi, 600)
     side = np.c_[2.0 + 0.04 * np.cos(ring), 2.5 + 0.04 * np.sin(ring), rng.uniform(cup_points_low, 0.98, 600)]
     cup = replace(
@@ -194,3 +196,24 @@ def test_a_childs_completion_registered_into_its_supports_seen_top_is_cut_there_
     objects, graph = _counter_and_cup(0.897, cup_bottom=0.897)
     layout = attach(objects, graph, rect_room(), AttachmentConfig())
     assert not [c for c in layout.completions().get(InstanceId(2), []) if c.kind is CompletionKind.CUT]
+
+
+def test_a_child_registered_tilted_is_cut_as_it_will_stand_levelled_on_its_support():
+    # a spice jar 7 cm tall seen upright on the counter (points 0.90-0.97 m) whose completion is 10 cm tall,
+    # registered 34 deg tilted about the points' middle: levelled there, it reaches 1.5 cm into the counter
+    # and 1.5 cm above its points; cut at the seen top and where its points end, it stands as it was seen
+    from rescene_core.assembly.transforms import rotation_about
+
+    objects, graph = _counter_and_cup(0.9)
+    rng = np.random.default_rng(11)
+    ring = rng.uniform(0.0, 2.0 * np.pi, 600)
+    side = np.c_[2.0 + 0.025 * np.cos(ring), 2.5 + 0.025 * np.sin(ring), rng.uniform(0.9, 0.97, 600)]
+    pose = rotation_about([0.6, 0.0, 0.0], [2.0, 2.5, 0.935]) @ placed(2.0, 2.5, 0.885)
+    jar = replace(box_object(2, "spice jar", (0.05, 0.05, 0.10), pose, exact_shape=False), points=side)
+    objects[InstanceId(2)] = jar
+    layout = attach(objects, graph, rect_room(), AttachmentConfig())
+    cuts = [c for c in layout.completions()[InstanceId(2)] if c.kind is CompletionKind.CUT]
+    assert len(cuts) == 2
+    seen = visual_objects(objects, layout)[InstanceId(2)].world_vertices(layout.world_from_asset[InstanceId(2)])
+    assert np.ptp(seen[:, :2], axis=0).max() < 0.06  # upright
+    assert abs(seen[:, 2].min() - 0.9) < 0.004 and abs(seen[:, 2].max() - 0.97) < 0.005
