@@ -164,6 +164,9 @@ class SegmentConfig(BaseModel):
     (a chair's or sofa's back, a headboard) and stays with it."""
     support_band: float = 0.04
     """A body whose lowest point is within this of a top's height, or above it, stands on it (m)."""
+    body_min_thickness: float = 0.05
+    """A region this thick every way or more can be a body resting on a top; a thinner one is a board or panel
+    of the piece (a shelf board's top face and front edge fuse 2-4 cm thick; a stack of two books is 5 cm) (m)."""
     top_min_points: int = 40
     """Fewest upward-facing points in a 3 cm slab that make a horizontal top a body can stand on (0.025 m^2)."""
     top_clearance: float = 0.015
@@ -642,19 +645,8 @@ def split_bodies_on_tops(
                 centre = p[:, :2].mean(axis=0)
                 if lo[2] > h + cfg.support_band or np.any(centre < tlo) or np.any(centre > thi):
                     continue  # it does not stand on the top (a shelf board over it, a part beside it)
-                if np.any(hi[:2] - lo[:2] >= cfg.support_span_fraction * (thi - tlo)):
+                if not _held_by_top(lo, hi, sp.points[slab, :2], cfg):
                     continue  # a chair's back, a headboard, a hutch: the piece's own
-                t = sp.points[slab, :2]
-                inside_y = (t[:, 1] >= lo[1]) & (t[:, 1] <= hi[1])
-                inside_x = (t[:, 0] >= lo[0]) & (t[:, 0] <= hi[0])
-                sides = [
-                    (inside_y & (t[:, 0] < lo[0] - cfg.top_margin)).sum(),
-                    (inside_y & (t[:, 0] > hi[0] + cfg.top_margin)).sum(),
-                    (inside_x & (t[:, 1] < lo[1] - cfg.top_margin)).sum(),
-                    (inside_x & (t[:, 1] > hi[1] + cfg.top_margin)).sum(),
-                ]
-                if sum(k >= cfg.min_contacts for k in sides) < cfg.top_sides:
-                    continue
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
@@ -667,6 +659,38 @@ def split_bodies_on_tops(
     _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
     graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
     return replace(sp, graph=graph), new_region, new_which, split
+
+
+def _sides_beyond(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> NDArray[np.bool_]:
+    """Whether a top's points ``top`` [k, 2] (x, y, m) reach ``top_margin`` beyond the footprint ``lo``, ``hi``
+    [>= 2] of what stands on it, ``min_contacts`` points each, on its four sides [4]: -x, +x, -y, +y."""
+    inside_y = (top[:, 1] >= lo[1]) & (top[:, 1] <= hi[1])
+    inside_x = (top[:, 0] >= lo[0]) & (top[:, 0] <= hi[0])
+    return np.array([
+        (inside_y & (top[:, 0] < lo[0] - cfg.top_margin)).sum(),
+        (inside_y & (top[:, 0] > hi[0] + cfg.top_margin)).sum(),
+        (inside_x & (top[:, 1] < lo[1] - cfg.top_margin)).sum(),
+        (inside_x & (top[:, 1] > hi[1] + cfg.top_margin)).sum(),
+    ]) >= cfg.min_contacts  # fmt: skip
+
+
+def _held_by_top(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether a part above a top, with bounds ``lo``, ``hi`` [3] (m), stands on it as a body of its own
+    rather than being the piece's own back: the top's upward-facing points ``top`` [k, 2] (x, y) reach
+    ``top_margin`` beyond its footprint on ``top_sides`` of its four sides (``_sides_beyond``), and it is
+    narrower than ``support_span_fraction`` of the top both ways (a chair's back, a headboard, a hutch spans
+    its seat, bed or desk one way and stands at its edge). A body spanning a narrow top one way only is its
+    own when the top reaches beyond it on both sides the other way and it is ``body_min_thickness`` thick
+    every way: a book stack as deep as the shelf it stands on, clear of the shelf's
+    ends (a divider board across a desk is thinner)."""
+    spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (top.max(axis=0) - top.min(axis=0))
+    if spans.all():
+        return False
+    sides = _sides_beyond(lo, hi, top, cfg)
+    if not spans.any():
+        return int(sides.sum()) >= cfg.top_sides
+    across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
+    return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness
 
 
 def _rejoin_enclosed(
@@ -734,16 +758,22 @@ def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: 
     """Whether a region with bounds ``lo``, ``hi`` [3] (m) stands on an upward-facing surface of a larger one
     (``tops`` [k, 3]: its points whose normal is within 15 degrees of up; bounds ``big_lo``, ``big_hi``):
     some of those points lie under its footprint at its lowest height (within ``support_band``), the top is
-    higher than ``support_min_height``, the region is at least twice ``support_band`` thick every way (no board
-    or panel), and it is narrower
-    than the larger region both ways (a mattress spans its bed's frame and stays with it)."""
-    if min(hi - lo) < 2 * cfg.support_band or lo[2] < cfg.support_min_height - cfg.support_band:
+    higher than ``support_min_height``, the region is at least ``body_min_thickness`` thick every way (no board
+    or panel), and it is narrower than the larger region both ways (a mattress spans its bed's frame and stays
+    with it) or one way only with the top reaching ``top_margin`` beyond it on both sides the other way at
+    its lowest height (``_sides_beyond``: a book stack as deep as its shelf, clear of the shelf's ends)."""
+    if min(hi - lo) < cfg.body_min_thickness or lo[2] < cfg.support_min_height - cfg.support_band:
         return False  # a board or a panel of the larger one, not a body on it
-    if np.any(hi[:2] - lo[:2] >= cfg.support_span_fraction * (big_hi[:2] - big_lo[:2])):
+    spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (big_hi[:2] - big_lo[:2])
+    if spans.all():
         return False
+    level = np.abs(tops[:, 2] - lo[2]) <= cfg.support_band
+    if spans.any():  # as deep as its shelf: the shelf reaches beyond it on both sides the other way
+        across = _sides_beyond(lo, hi, tops[level, :2], cfg)
+        if not (across[2:] if spans[0] else across[:2]).all():
+            return False
     under = np.all((tops[:, :2] >= lo[:2] - cfg.support_band) & (tops[:, :2] <= hi[:2] + cfg.support_band), axis=1)
-    under &= np.abs(tops[:, 2] - lo[2]) <= cfg.support_band
-    return int(under.sum()) >= cfg.min_contacts
+    return int((under & level).sum()) >= cfg.min_contacts
 
 
 def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:

@@ -121,3 +121,47 @@ def test_a_monitor_on_a_desk_is_split_off_at_the_top_and_the_desks_own_back_is_n
     assert split == 1 and len(which2) == sp2.graph.size
     assert len(np.unique(point_region[monitor])) == 1 and (point_region[monitor] != 1).all()
     assert (point_region[~monitor] == 1).all()  # the top, the legs, the back board and the corner box
+
+
+def test_a_stack_as_deep_as_its_shelf_is_held_by_it_a_back_or_a_divider_is_not():
+    from rescene_core.segment.geometric import _held_by_top
+
+    # a bookcase shelf 64 cm wide and 27 cm deep at z = 0.5, seen around what stands on it
+    shelf = _box((0.0, 0.0, 0.5), (0.64, 0.27, 0.5))[:, :2]
+
+    def top_around(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        hidden = np.all((shelf >= lo[:2]) & (shelf <= hi[:2]), axis=1)
+        return shelf[~hidden]
+
+    # a book stack 20 cm wide, 13 cm tall, as deep as the shelf (26 of 27 cm), in the middle of its width
+    stack = np.array([0.22, 0.0, 0.52]), np.array([0.42, 0.26, 0.65])
+    assert _held_by_top(*stack, top_around(*stack), CFG)
+    # the same stack pushed against the shelf's end: the shelf reaches beyond it on one side only
+    end = np.array([0.0, 0.0, 0.52]), np.array([0.2, 0.26, 0.65])
+    assert not _held_by_top(*end, top_around(*end), CFG)
+    # a divider board across the shelf, 2 cm thick: a panel of the case
+    divider = np.array([0.31, 0.0, 0.52]), np.array([0.33, 0.27, 0.8])
+    assert not _held_by_top(*divider, top_around(*divider), CFG)
+    # a chair's back spans its seat's width at the seat's rear edge; a box in the seat's middle stands on it
+    seat = _box((0.0, 0.0, 0.45), (0.45, 0.45, 0.45))[:, :2]
+    back = np.array([0.0, 0.4, 0.47]), np.array([0.45, 0.45, 0.9])
+    assert not _held_by_top(*back, seat[seat[:, 1] < 0.4], CFG)
+    box = np.array([0.15, 0.15, 0.47]), np.array([0.3, 0.3, 0.6])
+    inner = np.all((seat >= box[0][:2]) & (seat <= box[1][:2]), axis=1)
+    assert _held_by_top(*box, seat[~inner], CFG)
+    # a body as large as the top both ways is the piece's own
+    assert not _held_by_top(np.array([0.0, 0.0, 0.47]), np.array([0.45, 0.45, 0.6]), seat, CFG)
+
+
+def test_a_stack_as_deep_as_its_bookcase_rests_on_its_shelf_unless_it_lies_at_the_shelfs_end():
+    # a bookcase 64 cm wide, 27 cm deep; its shelf at z = 0.5, seen around the stack
+    shelf = _box((0.0, 0.0, 0.5), (0.64, 0.27, 0.5))
+    big_lo, big_hi = np.array([0.0, 0.0, 0.0]), np.array([0.64, 0.27, 1.8])
+    for stack, rests in (
+        ((np.array([0.22, 0.0, 0.5]), np.array([0.42, 0.25, 0.62])), True),  # 25 of 27 cm deep, mid-shelf
+        ((np.array([0.22, 0.05, 0.5]), np.array([0.42, 0.2, 0.57])), True),  # two books, 7 cm
+        ((np.array([0.22, 0.05, 0.5]), np.array([0.42, 0.2, 0.53])), False),  # 3 cm: a board of the case
+        ((np.array([0.0, 0.0, 0.5]), np.array([0.2, 0.25, 0.62])), False),  # at the shelf's end
+    ):
+        hidden = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
+        assert _rests_on(shelf[~hidden], *stack, big_lo, big_hi, CFG) is rests
