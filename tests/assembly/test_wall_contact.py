@@ -163,13 +163,13 @@ def _board_on_counter(rng, upright: bool):
     """A cutting board 0.4 x 0.24 m at x = 2 whose back edge is 3 cm off wall 0, on a counter 0.9 m tall seen
     from above against that wall, answered ``mounts-on wall``: lying flat (2 cm tall) on the counter's top,
     or standing upright on it (0.24 m tall, 2 cm deep)."""
-    worktop = np.c_[rng.uniform(1.5, 2.5, 3000), rng.uniform(0.0, 0.6, 3000), 0.9 + rng.normal(0.0, 0.001, 3000)]
+    worktop = np.c_[rng.uniform(1.5, 2.5, 800), rng.uniform(0.0, 0.6, 800), 0.9 + rng.normal(0.0, 0.001, 800)]
     counter = box_object(1, "kitchen counter", (1.0, 0.6, 0.9), placed(2.0, 0.3), exact_shape=False)
     counter = replace(counter, points=worktop)
     size = (0.4, 0.02, 0.24) if upright else (0.4, 0.24, 0.02)
     board = box_object(2, "cutting board", size, placed(2.0, 0.03 + size[1] / 2, 0.9), exact_shape=False)
     lo = np.array([1.8, 0.03, 0.9])
-    board = replace(board, points=lo + rng.uniform(0.0, 1.0, (1500, 3)) * np.array(size))
+    board = replace(board, points=lo + rng.uniform(0.0, 1.0, (400, 3)) * np.array(size))
     graph = SceneGraph(
         (
             Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
