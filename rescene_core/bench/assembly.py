@@ -614,10 +614,27 @@ def _panel(poses: dict, metrics: dict) -> dict[str, Any]:
     return {"poses": poses, "colliding": metrics["colliding"], "oob": set(metrics["oob_objects"])}
 
 
+def _box_centre(vertices) -> np.ndarray:
+    return 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+
+
+def moved_by_attachment(objects: dict, poses: dict) -> list[float]:
+    """How far (m) attachment moved each object's bounding-box centre (its full mesh, as registered) from
+    its registered pose to ``poses`` [4, 4] each (issue 27: no object moved more than the correction bound)."""
+    return [
+        float(np.linalg.norm(_box_centre(obj.world_vertices(poses[i])) - _box_centre(obj.world_vertices())))
+        for i, obj in objects.items()
+        if i in poses
+    ]
+
+
 def _registration_stages(
     objects: dict, graph: SceneGraph, shell: RoomShell, gt_centre: dict, poses_out: dict | None = None
 ) -> dict[str, Any]:
-    """Metrics of every stage from the registered poses; ``poses_out`` receives each stage's poses."""
+    """Metrics of every stage from the registered poses; ``poses_out`` receives each stage's poses. Besides
+    the structural metrics and the pose error: ``moved_max_m``, the largest move of an object's centre by
+    attachment (m), and ``moved_over_bound``, how many objects moved more than ``max_correction_m``."""
+    bound = AttachmentConfig().max_correction_m
     stages: dict[str, Any] = {}
     for stage in STAGES:
         if stage == "none":
@@ -637,11 +654,14 @@ def _registration_stages(
         for i, c in gt_centre.items():
             pv = visual[i].world_vertices(poses[i])  # the exported mesh: cut, without colliders added
             err.append(float(np.linalg.norm(0.5 * (pv.min(0) + pv.max(0)) - c)))
+        moved = moved_by_attachment(objects, poses)
         stages[stage] = {
             **{k: m[k] for k in METRICS if k in m},
             "pose_err_median": float(np.median(err)) if err else None,
             "pose_err_mean": float(np.mean(err)) if err else None,
             "rot_err_median": None,
+            "moved_max_m": max(moved, default=0.0),
+            "moved_over_bound": None if bound is None else sum(m > bound for m in moved),
             "seconds": seconds,
             "oob_objects": m["oob_objects"],
             "colliding": m["colliding"],

@@ -74,3 +74,28 @@ def test_exact_shapes_are_registered_once_and_cached(tmp_path, monkeypatch):
     assert {i: o.world_from_asset.tolist() for i, o in again.items()} == {
         i: o.world_from_asset.tolist() for i, o in objects.items()
     }
+
+
+def test_registration_stages_report_how_far_attachment_moved_each_object():
+    from dataclasses import replace
+
+    import numpy as np
+
+    from rescene_core.assembly.scenes import box_object, placed, rect_room
+    from rescene_core.bench.assembly import _registration_stages
+    from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
+
+    # a crate registered 0.1 m above the floor it rests on, its points where the crate is
+    crate = box_object(1, "crate", (0.4, 0.4, 0.3), placed(2.0, 2.5, 0.1), exact_shape=False)
+    rng = np.random.default_rng(0)
+    crate = replace(
+        crate, points=np.c_[rng.uniform(1.8, 2.2, 400), rng.uniform(2.3, 2.7, 400), rng.uniform(0, 0.3, 400)]
+    )
+    graph = SceneGraph((Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),))
+    stages = _registration_stages(
+        {InstanceId(1): crate}, graph, rect_room(), {InstanceId(1): np.array([2.0, 2.5, 0.15])}
+    )
+    assert stages["none"]["moved_max_m"] == 0.0 and stages["none"]["moved_over_bound"] == 0
+    assert abs(stages["full"]["moved_max_m"] - 0.1) < 0.002  # dropped onto the floor, nothing else
+    assert stages["full"]["moved_over_bound"] == 0
+    assert stages["full"]["pose_err_median"] < 0.002
