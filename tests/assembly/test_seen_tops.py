@@ -124,3 +124,35 @@ def test_the_front_of_a_support_below_its_seen_top_does_not_carry_a_child_regist
     support = [op for op in layout.operations if op["instance"] == 2 and op["stage"] == "object support"][-1]
     assert "around the child" not in support.get("support_plane", "")
     assert _cup_bottom(objects, layout) > 0.895
+
+
+def _voxel_layered_island(rng, top: float) -> np.ndarray:
+    """The island's worktop at ``top`` as fused by voxel means where it straddles a voxel boundary 4 mm above
+    it: in every 1.5 cm column the bulk of the depth samples averages to the top, and in two columns of three
+    the noise tail beyond the boundary to a layer 7 mm higher; with the upper 4 cm of its front."""
+    x, y = np.meshgrid(np.arange(1.41, 2.6, 0.015), np.arange(2.11, 2.9, 0.015))
+    xy = np.c_[x.ravel(), y.ravel()]
+    bulk = np.c_[xy, top + rng.normal(0.0, 0.0005, len(xy))]
+    tail = xy[rng.random(len(xy)) < 2.0 / 3.0]
+    tail = np.c_[tail, top + 0.007 + rng.normal(0.0, 0.0005, len(tail))]
+    front = np.c_[rng.uniform(1.4, 2.6, 300), np.full(300, 2.1), rng.uniform(top - 0.04, top, 300)]
+    return np.vstack([bulk, tail, front])
+
+
+def test_the_top_seen_around_a_child_is_its_supports_surface_not_a_voxel_layer_or_the_childs_bleed():
+    from rescene_core.assembly.compile_support import top_seen_around
+    from rescene_core.assembly.room import room_from_shell
+
+    rng = np.random.default_rng(12)
+    # the island's completion 1 cm taller than its worktop seen at 0.90 m: the cup stands on the seen top
+    objects, graph = _kitchen(mesh_height=0.91, seen_top=0.90)
+    # the cup's side, lost to the island's mask over its footprint (its mesh 1 cm wider than the cup), up to
+    # the top of the band the surface is read in
+    angle = rng.uniform(0.0, 2.0 * np.pi, 300)
+    bleed = np.c_[2.1 + 0.035 * np.cos(angle), 2.5 + 0.035 * np.sin(angle), rng.uniform(0.90, 0.915, 300)]
+    objects[ISLAND] = replace(objects[ISLAND], points=np.vstack([_voxel_layered_island(rng, 0.90), bleed]))
+    top = top_seen_around(objects[ISLAND], objects[CUP], room_from_shell(rect_room()))
+    # the band's upper quartile read the tail's layer and the bleed: 6-7 mm high
+    assert top is not None and abs(top - 0.90) < 0.001
+    layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
+    assert abs(_cup_bottom(objects, layout) - 0.90) < 0.0015
