@@ -15,6 +15,8 @@
    slender uprights standing under a broader region (fused table legs, a desk's side panels) join it;
    regions parted by creases alone join again when one lies within the other's bounds (shelves in a
    bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
+   A region ending just under another, under its footprint, with a slender upper end joins it (a table
+   lamp's base and stem under its shade, parted from it by colour and the crease at the rim).
    A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres).
    Wall superpoints stay wall unless their colour differs from the wall's or they stand proud of it, and
@@ -177,6 +179,11 @@ class SegmentConfig(BaseModel):
     top_sides: int = 3
     """... on at least this many of the four sides: a monitor, a lamp or a book stack on a desk (one side may
     be the wall or the desk's edge); a back or an armrest along the seat's edge is the piece's own."""
+    stem_margin: float = 0.02
+    """A region below another, ending where the other begins and under its footprint within this margin (m), ..."""
+    stem_width_fraction: float = 0.5
+    """... whose upper end is narrower than this fraction of the other both ways is its stem (a table lamp's
+    base and stem under its shade) and joins it."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -565,6 +572,7 @@ def merge_superpoints(
     region, stats["rejoined_enclosed"] = _rejoin_enclosed(
         sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
     )
+    region, stats["stems_joined"] = _join_stems(sp, region, cfg)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
@@ -752,6 +760,47 @@ def _rejoin_enclosed(
         if not changed:
             break
     return region, joined
+
+
+def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
+    """A region below another that it touches, lying under that one's footprint (within ``stem_margin``), its
+    top within ``support_band`` of the other's lowest point and its upper end (the points within
+    ``support_band`` of its top) narrower than ``stem_width_fraction`` of the other both ways, joins it: a
+    table lamp's base and stem under its shade, parted from it by the shade's colour and the crease at the
+    rim. A book stack under another has a top as broad as itself and stays apart. ``region`` [s] (0: none);
+    returns the regions and how many joined."""
+    g = sp.graph
+    region = region.copy()
+    n = int(region.max(initial=0)) + 1
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, region, g.lo)
+    np.maximum.at(hi, region, g.hi)
+    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+    ok = (ra > 0) & (rb > 0) & (ra != rb)
+    key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
+    uk, inv = np.unique(key, return_inverse=True)
+    contacts = np.bincount(inv, g.contacts[ok], len(uk))
+    point_region = region[g.label]
+    remap = np.arange(n)
+    joined = 0
+    for k in uk[contacts >= cfg.min_contacts].tolist():
+        for low, top in ((k // n, k % n), (k % n, k // n)):
+            if remap[low] != low or remap[top] != top:
+                continue
+            if abs(hi[low, 2] - lo[top, 2]) > cfg.support_band or lo[low, 2] >= lo[top, 2]:
+                continue  # it does not end where the other begins, below it
+            if np.any(lo[low, :2] < lo[top, :2] - cfg.stem_margin) or np.any(
+                hi[low, :2] > hi[top, :2] + cfg.stem_margin
+            ):
+                continue  # it reaches out from under the other's footprint
+            p = sp.points[point_region == low]
+            end = p[p[:, 2] >= hi[low, 2] - cfg.support_band, :2]
+            if np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2])):
+                continue  # a broad top: a body under the other (a book stack under another), not a stem
+            remap[low] = top
+            joined += 1
+    return remap[region], joined
 
 
 def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: NDArray, cfg: SegmentConfig) -> bool:

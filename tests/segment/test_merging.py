@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from rescene_core.segment.geometric import ScanPoints, SegmentConfig, _attach_legs, _faces_wall, _rests_on
+from rescene_core.segment.geometric import (
+    ScanPoints,
+    SegmentConfig,
+    _attach_legs,
+    _faces_wall,
+    _join_stems,
+    _rests_on,
+)
 from rescene_core.segment.superpoints import edge_weights, point_graph, superpoint_graph
 
 STEP = 0.025
@@ -165,3 +172,19 @@ def test_a_stack_as_deep_as_its_bookcase_rests_on_its_shelf_unless_it_lies_at_th
     ):
         hidden = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
         assert _rests_on(shelf[~hidden], *stack, big_lo, big_hi, CFG) is rests
+
+
+def test_a_lamps_stem_under_its_shade_joins_it_a_stack_under_a_stack_or_its_nightstand_does_not():
+    nightstand = _box((0.2, 0.2, 0.0), (0.8, 0.8, 0.475))
+    base = np.concatenate([_box((0.4, 0.4, 0.5), (0.6, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.75))])
+    shade = _box((0.35, 0.35, 0.775), (0.65, 0.65, 0.95))  # parted from the stem by its colour and rim
+    lower = _box((1.5, 0.3, 0.5), (1.75, 0.55, 0.6))  # two book stacks, one on the other, as wide
+    upper = _box((1.5, 0.3, 0.625), (1.75, 0.55, 0.7))
+    sp, region = _scan([nightstand, base, shade, lower, upper])
+    out, joined = _join_stems(sp, region, CFG)
+    assert joined == 1
+    assert out[1] == out[2] != out[0]  # the stem with its shade, the nightstand it stands on apart
+    assert out[3] != out[4]  # the lower stack's top is as broad as the stack above: a body, not a stem
+    # a stem reaching out from under its shade (a floor lamp's arm beside a shelf) stays apart
+    sp, region = _scan([base + [0.3, 0.0, 0.0], shade])
+    assert _join_stems(sp, region, CFG)[1] == 0
