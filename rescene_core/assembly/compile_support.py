@@ -311,10 +311,11 @@ def surface_height(heights: NDArray) -> float:
     return float(np.median(h[k : k + int(counts[k])]))
 
 
-SEEN_TOP_MARGIN = 0.005
+SEEN_TOP_MARGIN = 0.0025
 """A generated parent's face farther than this (m) from the top its observed points show around a child
-(``seen_top_around``) is not where the child stands: the seen top carries it (a few millimetres of depth
-noise and marching-cubes steps are not a disagreement)."""
+(``seen_top_around``) is not where the child stands: the seen top carries it (the top read around a child is
+within 2.5 mm of the truth for 168 of 176 children on egocentric seeds 200-209 and 0-4; 5 mm while the band's
+upper quartile read it, and a counter's face 2.3-2.4 mm above its true top carried three jars and cups)."""
 SURFACE_HALF_BAND = 0.01
 """Half the height (m) of the window in which a surface's points are counted (``seen_top_around``)."""
 SEEN_TOP_ABOVE = 0.10

@@ -56,10 +56,10 @@ def test_a_child_stands_on_the_top_seen_around_it_not_on_a_generated_top_a_centi
     assert abs(_cup_bottom(objects, layout) - 0.90) < 0.002
     support = [op for op in layout.operations if op["instance"] == 2 and op["stage"] == "object support"]
     assert support and support[-1]["support_plane"] == "the parent's observed top around the child"
-    # a face within a few millimetres of the seen top is the top: the cup stands on the mesh itself
-    objects, graph = _kitchen(mesh_height=0.903, seen_top=0.90)
+    # a face within 2.5 mm of the seen top is the top: the cup stands on the mesh itself
+    objects, graph = _kitchen(mesh_height=0.902, seen_top=0.90)
     layout = attach(objects, graph, rect_room(), AttachmentConfig(near_wall_snap=False))
-    assert abs(_cup_bottom(objects, layout) - 0.903) < 1e-6
+    assert abs(_cup_bottom(objects, layout) - 0.902) < 1e-6
     assert "support_plane" not in [op for op in layout.operations if op["instance"] == 2][0]
 
 
