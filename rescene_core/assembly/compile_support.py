@@ -267,25 +267,31 @@ def surface_seen_around(pobj: AssemblyObject, cobj: AssemblyObject, room: Room) 
     heights of the parent's observed points in the ring around the footprint (``ring_around``) within
     LEVEL_BAND of the bottom, when there are at least BOARD_MIN_POINTS of them and their horizontal hull reaches
     within EXTENSION_SEEN_MARGIN of the footprint's centre; else None."""
+    return _surface_in_ring(pobj, cobj, room)[0]
+
+
+def _surface_in_ring(
+    pobj: AssemblyObject, cobj: AssemblyObject, room: Room
+) -> tuple[float | None, NDArray[np.float64]]:
+    """``surface_seen_around`` and the heights (m above the floor) [k] of the parent's observed points in the
+    ring around the child's registered footprint, which ``top_seen_around`` compares it with."""
     if pobj.points is None or len(pobj.points) < BOARD_MIN_POINTS:
-        return None
+        return None, np.zeros(0)
     seen = cobj.world_vertices()
     bottom = float(room.floor_distance(seen).min())
+    fp = footprint(seen)
     pts = np.asarray(pobj.points, dtype=np.float64)
+    pts = pts[shapely.contains_xy(ring_around(fp), pts[:, 0], pts[:, 1])]
     heights = room.floor_distance(pts)
     band = (heights >= bottom - LEVEL_BAND[0]) & (heights <= bottom + LEVEL_BAND[1])
     if int(band.sum()) < BOARD_MIN_POINTS:
-        return None
-    fp = footprint(seen)
-    around = shapely.contains_xy(ring_around(fp), pts[band, 0], pts[band, 1])
-    if int(around.sum()) < BOARD_MIN_POINTS:
-        return None
+        return None, heights
     # the surface must reach the child's centre (EXTENSION_SEEN_MARGIN): a top that ends under the child
     # does not carry it
-    hull = shapely.MultiPoint(pts[band][around][:, :2]).convex_hull
+    hull = shapely.MultiPoint(pts[band][:, :2]).convex_hull
     if not hull.buffer(EXTENSION_SEEN_MARGIN).contains(fp.centroid):
-        return None
-    return surface_height(heights[band][around])
+        return None, heights
+    return surface_height(heights[band]), heights
 
 
 def ring_around(fp: Polygon) -> Polygon:
@@ -335,12 +341,10 @@ def seen_top_around(state: LayoutState, parent: InstanceId, child: InstanceId) -
 
 def top_seen_around(pobj: AssemblyObject, cobj: AssemblyObject, room: Room) -> float | None:
     """``seen_top_around`` for parent ``pobj`` and child ``cobj`` at their registered poses in ``room``."""
-    around = surface_seen_around(pobj, cobj, room)
+    around, heights = _surface_in_ring(pobj, cobj, room)
     if around is None:
         return None
-    pts = np.asarray(pobj.points, dtype=np.float64)
-    ring = ring_around(footprint(cobj.world_vertices()))
-    heights = np.sort(room.floor_distance(pts[shapely.contains_xy(ring, pts[:, 0], pts[:, 1])]))
+    heights = np.sort(heights)
     window = np.searchsorted(heights, heights + SURFACE_HALF_BAND, side="right") - np.searchsorted(
         heights, heights - SURFACE_HALF_BAND, side="left"
     )

@@ -205,13 +205,11 @@ def levelled_for_seat(obj: AssemblyObject, seen: NDArray, room: Room) -> Assembl
     from rescene_core.assembly.transforms import level_correction
 
     pose = np.asarray(obj.world_from_asset, np.float64)
-    z = pose[:3, 2]
-    tilt = float(np.degrees(np.arccos(np.clip(float(z @ room.up) / float(np.linalg.norm(z)), -1.0, 1.0))))
-    if tilt <= LEVEL_REFIT_MIN_TILT_DEG:
-        return obj
     verts = obj.world_vertices()
     pivot = np.median(seen, axis=0) if len(seen) >= LEVEL_PIVOT_MIN_POINTS else 0.5 * (verts.min(0) + verts.max(0))
-    correction, _ = level_correction(pose, room.up, pivot, np.pi, candidates=(2,))
+    correction, tilt = level_correction(pose, room.up, pivot, np.pi, candidates=(2,))
+    if np.degrees(tilt) <= LEVEL_REFIT_MIN_TILT_DEG:
+        return obj
     return replace(obj, world_from_asset=correction @ pose)
 
 

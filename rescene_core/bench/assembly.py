@@ -127,6 +127,12 @@ def ground_truth_layout(preset: str, seed: int):
     return objects, SceneGraph(edges), shell, source
 
 
+def box_centre(vertices: np.ndarray) -> np.ndarray:
+    """Centre [3] (m) of the axis-aligned bounding box of ``vertices`` [n, 3]: where the pose errors of this
+    suite are measured."""
+    return 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+
+
 def _nearest_wall(shell: RoomShell, point: np.ndarray):
     best = None
     for w in shell.walls:
@@ -147,7 +153,7 @@ def perturb(objects: dict, graph: SceneGraph, shell: RoomShell, seed: int) -> tu
     centres = {i: o.world_vertices().mean(axis=0) for i, o in objects.items()}
     for i, obj in objects.items():
         v = obj.world_vertices()
-        centre = 0.5 * (v.min(0) + v.max(0))
+        centre = box_centre(v)
         mode = FAILURE_MODES[rng.choice(len(FAILURE_MODES), p=FAILURE_PROBS)]
         on_wall = parent.get(i) is Root.WALL
         if mode == "interpenetrating" and on_wall:
@@ -227,7 +233,7 @@ def pose_errors(gt: dict, objects: dict, poses: dict) -> tuple[float, float]:
     for i, g in gt.items():
         gv = g.world_vertices()
         pv = objects[i].world_vertices(poses[i])
-        t_err.append(np.linalg.norm(0.5 * (gv.min(0) + gv.max(0)) - 0.5 * (pv.min(0) + pv.max(0))))
+        t_err.append(np.linalg.norm(box_centre(gv) - box_centre(pv)))
         r_err.append(rigid_change(g.world_from_asset, poses[i])[1])
     return float(np.median(t_err)), float(np.median(r_err))
 
@@ -510,7 +516,7 @@ def registration_scene(seed: int, work_dir: Path, preset: str = "standard") -> d
     for i in objects:
         if int(i) in obj_of:
             gv = np.asarray(gt.world_mesh(obj_of[int(i)]).vertices)
-            gt_centre[i] = 0.5 * (gv.min(0) + gv.max(0))
+            gt_centre[i] = box_centre(gv)
     fused_graph = doc.scene.graph
     gt_graph = gt.graph_by_instance()
     graphs = {
@@ -614,15 +620,11 @@ def _panel(poses: dict, metrics: dict) -> dict[str, Any]:
     return {"poses": poses, "colliding": metrics["colliding"], "oob": set(metrics["oob_objects"])}
 
 
-def _box_centre(vertices) -> np.ndarray:
-    return 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
-
-
 def moved_by_attachment(objects: dict, poses: dict) -> list[float]:
     """How far (m) attachment moved each object's bounding-box centre (its full mesh, as registered) from
     its registered pose to ``poses`` [4, 4] each (issue 27: no object moved more than the correction bound)."""
     return [
-        float(np.linalg.norm(_box_centre(obj.world_vertices(poses[i])) - _box_centre(obj.world_vertices())))
+        float(np.linalg.norm(box_centre(obj.world_vertices(poses[i])) - box_centre(obj.world_vertices())))
         for i, obj in objects.items()
         if i in poses
     ]
@@ -653,7 +655,7 @@ def _registration_stages(
         err = []
         for i, c in gt_centre.items():
             pv = visual[i].world_vertices(poses[i])  # the exported mesh: cut, without colliders added
-            err.append(float(np.linalg.norm(0.5 * (pv.min(0) + pv.max(0)) - c)))
+            err.append(float(np.linalg.norm(box_centre(pv) - c)))
         moved = moved_by_attachment(objects, poses)
         stages[stage] = {
             **{k: m[k] for k in METRICS if k in m},

@@ -701,6 +701,16 @@ def _held_by_top(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> 
     return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness
 
 
+def _region_bounds(g: SuperpointGraph, region: NDArray[np.int64], n: int) -> tuple[NDArray, NDArray]:
+    """Axis-aligned bounds ``lo``, ``hi`` [n, 3] (m) of each of ``n`` regions, from the bounds of the
+    superpoints ``region`` [s] assigns to them (a region without superpoints: +inf, -inf)."""
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, region, g.lo)
+    np.maximum.at(hi, region, g.hi)
+    return lo, hi
+
+
 def _rejoin_enclosed(
     sp: ScanPoints,
     region: NDArray[np.int64],
@@ -723,10 +733,7 @@ def _rejoin_enclosed(
     up = sp.normals[:, 2] > np.cos(np.radians(15.0))
     for _ in range(3):
         n = int(region.max()) + 1
-        lo = np.full((n, 3), np.inf)
-        hi = np.full((n, 3), -np.inf)
-        np.minimum.at(lo, region, g.lo)
-        np.maximum.at(hi, region, g.hi)
+        lo, hi = _region_bounds(g, region, n)
         pts = np.bincount(region, g.count, n)
         along = np.bincount(region, g.count * near_structure, n) >= 0.5 * pts
         ra, rb = region[g.pairs[creased, 0]], region[g.pairs[creased, 1]]
@@ -772,10 +779,7 @@ def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -
     g = sp.graph
     region = region.copy()
     n = int(region.max(initial=0)) + 1
-    lo = np.full((n, 3), np.inf)
-    hi = np.full((n, 3), -np.inf)
-    np.minimum.at(lo, region, g.lo)
-    np.maximum.at(hi, region, g.hi)
+    lo, hi = _region_bounds(g, region, n)
     ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
     ok = (ra > 0) & (rb > 0) & (ra != rb)
     key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
@@ -850,10 +854,7 @@ def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) 
     region = region.copy()
     n = int(region.max()) + 1
     point_region = region[g.label]
-    lo = np.full((n, 3), np.inf)
-    hi = np.full((n, 3), -np.inf)
-    np.minimum.at(lo, region, g.lo)
-    np.maximum.at(hi, region, g.hi)
+    lo, hi = _region_bounds(g, region, n)
     span = hi - lo
     narrow = span[:, :2].min(axis=1)
     slender = (narrow <= cfg.leg_max_width) & (span[:, 2] >= 2 * narrow) & (np.arange(n) > 0)
@@ -904,10 +905,7 @@ def _absorb_small(g: SuperpointGraph, region: NDArray[np.int64], cfg: SegmentCon
     for _ in range(3):
         n = int(region.max()) + 1
         pts = np.bincount(region, g.count, n)
-        lo = np.full((n, 3), np.inf)
-        hi = np.full((n, 3), -np.inf)
-        np.minimum.at(lo, region, g.lo)
-        np.maximum.at(hi, region, g.hi)
+        lo, hi = _region_bounds(g, region, n)
         width = (hi[:, :2] - lo[:, :2]).max(axis=1)
         thin = (width <= cfg.leg_width) & (hi[:, 2] - lo[:, 2] >= 2 * width)
         ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
