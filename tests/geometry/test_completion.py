@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from rescene_core.geometry.completion import completed_mesh, completion_solid, completion_surface
+from rescene_core.geometry.completion import completed_mesh, completion_solid, completion_surface, cut_mesh
 from rescene_core.geometry.sim3 import apply, sim3_from_parts
 from rescene_core.records import Completion, CompletionKind, InstanceId, Layout, Operation
 
@@ -62,3 +62,18 @@ def test_a_cut_keeps_the_side_its_normal_points_to_and_stays_closed():
     np.testing.assert_allclose(v[:, 2].min(), -0.2, atol=1e-12)
     ops = (Operation(1, "all", "completions", "cut", {"points_asset": cut.points_asset, "source": "wall"}),)
     assert Layout({}, ops).completions()[InstanceId(1)][0].kind is CompletionKind.CUT
+
+
+def test_a_cut_at_the_mesh_own_side_face_keeps_the_mesh_inside_its_bounds():
+    # the side face's vertices lie on the plane to within rounding, some just past trimesh's 1e-8 tolerance
+    rng = np.random.default_rng(0)
+    box = trimesh.creation.box(extents=(1.0, 0.7, 0.9)).subdivide().subdivide().subdivide()
+    box.merge_vertices()
+    vertices = np.array(box.vertices)
+    side = np.isclose(vertices[:, 0], -0.5)
+    vertices[side, 0] += rng.uniform(-2e-8, 2e-8, side.sum())
+    cut = Completion(InstanceId(1), CompletionKind.CUT, np.array([[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0]]), "overlap")
+    v, f = cut_mesh(vertices, np.asarray(box.faces), [cut])
+    np.testing.assert_array_less(v.max(axis=0), vertices.max(axis=0) + 1e-5)
+    np.testing.assert_array_less(vertices.min(axis=0) - 1e-5, v.min(axis=0))
+    assert trimesh.Trimesh(v, f).is_watertight
