@@ -95,3 +95,31 @@ def test_a_picture_just_under_a_shelf_is_parted_in_the_wall_plane_not_slid_sidew
     assert after["collision_pairs"] == 0 and after["wall_contact_pass"] == 1.0
     for i, obj in objects.items():  # parted by centimetres, not by a picture's width along the wall
         assert np.linalg.norm(layout.world_from_asset[i][:3, 3] - obj.world_from_asset[:3, 3]) < 0.05
+
+
+def test_a_board_reaching_just_into_the_next_counter_top_is_lifted_onto_it_not_pushed():
+    shell = rect_room()
+    counter = box_object(1, "kitchen counter", (1.0, 0.6, 0.9), placed(1.5, 2.5))  # x 1.0 .. 2.0
+    # the next counter, registered 2 mm taller, 4 mm along the row
+    neighbour = box_object(2, "kitchen counter", (0.6, 0.6, 0.902), placed(2.304, 2.5))  # x 2.004 .. 2.604
+    # a generated board on 1, its centre on 1 (x 1.75 .. 2.15)
+    board = box_object(3, "cutting board", (0.4, 0.3, 0.02), placed(1.95, 2.5, 0.9), exact_shape=False)
+    objects = {o.instance: o for o in (counter, neighbour, board)}
+    graph = SceneGraph(
+        (
+            Edge(InstanceId(1), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(2), Relation.RESTS_ON, Root.FLOOR, 1.0),
+            Edge(InstanceId(3), Relation.RESTS_ON, InstanceId(1), 1.0),
+        )
+    )
+    assert structural_metrics(objects, None, graph, shell)["collision_pairs"] == 1
+    cfg = AttachmentConfig(dual_attachment=False, near_wall_snap=False, restore_toward_evidence=False)
+    layout = attach(objects, graph, shell, cfg)
+    assert structural_metrics(objects, layout, graph, shell)["collision_pairs"] == 0
+    pose = layout.world_from_asset
+    for i, obj in ((1, counter), (2, neighbour)):  # neither counter pushed along the row
+        assert np.linalg.norm(pose[InstanceId(i)][:2, 3] - obj.world_from_asset[:2, 3]) < 1e-6
+    lift = pose[InstanceId(3)][2, 3] - board.world_from_asset[2, 3]
+    assert 0.002 < lift <= 0.004  # onto the neighbour's top, a millimetre clear of it
+    np.testing.assert_allclose(pose[InstanceId(3)][:2, 3], board.world_from_asset[:2, 3], atol=1e-6)
+    assert any(op["rule"] == "lift onto neighbour's top" for op in layout.operations)
