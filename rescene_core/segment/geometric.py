@@ -3,8 +3,9 @@
 1. TSDF fusion of every frame (Open3D's tensor ``VoxelBlockGrid``, depth and colour thinned by
    ``tsdf_stride`` first) and its surface mesh with vertex colours.
 2. Room structure: the floor (z near 0 in the aligned frame), a ceiling (a large horizontal plane above the
-   cameras) and walls (large vertical planes with almost nothing behind them). A vertex joins a plane only
-   if it lies on it and its normal agrees, so the side of a cabinet against a wall stays with the cabinet.
+   cameras or, seen too little for a plane, the densest slab of downward-facing surface above them) and
+   walls (large vertical planes with almost nothing behind them). A vertex joins a plane only if it lies
+   on it and its normal agrees, so the side of a cabinet against a wall stays with the cabinet.
 3. Superpoints (``rescene_core.segment.superpoints``): the vertices off the floor and ceiling, thinned to
    ``superpoint_voxel``, are over-segmented by Felzenszwalb-Huttenlocher on normals and colour, as
    ScanNet's mesh segmentation does.
@@ -19,12 +20,12 @@
    lamp's base and stem under its shade, parted from it by colour and the crease at the rim).
    A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres).
-   Wall superpoints stay wall unless their colour differs from the wall's or they stand proud of it, and
-   hanging superpoints just off a wall's plane (a clock's rim and face) count with them; such a region
-   hanging clear of the floor and ceiling with a sharp outline or a depth step is a flush object (a
-   picture, a mirror, a clock, a TV), its pieces parted by colour joined when one lies within the other
-   (a canvas in its frame). Regions too small, too large, upright sheets as tall as a wall and slivers of
-   the structure are dropped.
+   Wall superpoints stay wall unless their colour differs from the wall's (not as a shadow's does: it
+   keeps the wall's hue) or they stand proud of it, and hanging superpoints just off a wall's plane (a
+   clock's rim and face) count with them; such a region hanging clear of the floor and ceiling with a
+   sharp outline (not a shadow's) or a depth step is a flush object (a picture, a mirror, a clock, a TV),
+   its pieces parted by colour joined when one lies within the other (a canvas in its frame). Regions
+   too small, too large, upright sheets as tall as a wall and slivers of the structure are dropped.
 5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
@@ -96,6 +97,12 @@ class SegmentConfig(BaseModel):
     """Largest share of the scene's points behind a wall plane (seen from the cameras)."""
     ceiling_min_above_cameras: float = 0.1
     """A ceiling lies at least this far above the highest camera (m)."""
+    ceiling_min_vertices: int = 50
+    """A ceiling seen too little for the plane search (only in a corner or along the top of a wall: fewer than
+    200 points of ``plane_voxel``) is the densest slab ``2 * plane_distance`` thick of downward-facing mesh
+    vertices above the cameras when it holds at least this many (50 vertices of a 2 cm TSDF: 0.02 m^2) and
+    fewer than this many vertices lie above it (the ceiling is the top of the room; a pendant lamp's
+    underside has its shade above it)."""
     plane_voxel: float = 0.05
     """Voxel size the points are thinned to for the wall and ceiling search (m)."""
     superpoint_voxel: float = 0.025
@@ -122,6 +129,10 @@ class SegmentConfig(BaseModel):
     the shading and exposure of a real recording step 0.22 across one surface)."""
     flush_colour_step: float = 0.12
     """A superpoint on a wall whose mean colour differs from the wall's by this much is a flush candidate..."""
+    flush_shadow_tint: float = 0.02
+    """... unless it is the wall's colour darkened: the rest of its colour after the best darker multiple of
+    the wall's is taken off is under this (RGB distance / sqrt 3; a shadow under a shelf keeps the wall's
+    hue, 0.001-0.007 off it, a door's or a bookcase back's wood is 0.06 off)..."""
     flush_offset: float = 0.012
     """... as is one standing this far proud of the wall plane on average (m); a region of candidates that
     stands this far proud (median) is a flush object (a TV, a mirror in its frame)..."""
@@ -323,7 +334,7 @@ def _structure(
     rest = pcd
     next_id = 2
     walls: list[tuple[NDArray, float, NDArray, float, float]] = []
-    ceiling: tuple[NDArray, float] | None = None
+    ceiling: float | None = None
     for _ in range(cfg.max_planes):
         if len(rest.points) < 200:
             break
@@ -363,8 +374,12 @@ def _structure(
                 walls.append((n, d, horiz, lo, hi))
         elif abs(n[2]) > np.cos(np.radians(cfg.vertical_tolerance_deg)):
             z = float(np.median(pts[:, 2]))
-            if z > top_cam + cfg.ceiling_min_above_cameras and (ceiling is None or z > -ceiling[1]):
-                ceiling = (np.array([0.0, 0.0, -1.0]), z)
+            if z > top_cam + cfg.ceiling_min_above_cameras and (ceiling is None or z > ceiling):
+                ceiling = z
+    found_by = "plane"
+    if ceiling is None:
+        # left out, the strips of ceiling the cameras did see become object segments
+        ceiling, found_by = _ceiling_slab(verts[free], normals[free], top_cam, cfg), "downward slab"
     for n, d, horiz, lo, hi in walls:
         along = verts @ horiz
         on = free & (np.abs(verts @ n + d) < cfg.plane_distance) & (np.abs(normals @ n) > cos_n)
@@ -375,12 +390,36 @@ def _structure(
         free &= ~on
         next_id += 1
     if ceiling is not None:
-        _, z = ceiling
+        z = ceiling
         on = free & (verts[:, 2] > z - cfg.plane_distance) & (np.abs(normals[:, 2]) > cos_n)
         on |= free & (verts[:, 2] > z + cfg.plane_distance)
         labels[on] = next_id
-        planes.append({"kind": "ceiling", "id": next_id, "height": round(z, 4), "vertices": int(on.sum())})
+        planes.append(
+            {"kind": "ceiling", "id": next_id, "height": round(z, 4), "vertices": int(on.sum()), "found_by": found_by}
+        )
     return labels, planes
+
+
+def _ceiling_slab(verts: NDArray, normals: NDArray, top_cam: float, cfg: SegmentConfig) -> float | None:
+    """Height (m) of a ceiling too little seen for the plane search, from mesh vertices [v, 3] and their unit
+    normals [v, 3] (world frame, z up) off the floor: the median height of the downward-facing vertices
+    (within ``vertical_tolerance_deg`` of down) in the slab within ``plane_distance`` of a height that holds
+    the most of them, above ``top_cam`` (the highest camera, m) by ``ceiling_min_above_cameras``. None when
+    that slab holds fewer than ``ceiling_min_vertices`` or as many vertices lie above it."""
+    band = cfg.plane_distance
+    down = normals[:, 2] < -np.cos(np.radians(cfg.vertical_tolerance_deg))
+    z = np.sort(verts[down & (verts[:, 2] > top_cam + cfg.ceiling_min_above_cameras), 2])
+    if len(z) < cfg.ceiling_min_vertices:
+        return None
+    heights = np.arange(z[0], z[-1] + 0.01, 0.01)  # 1 cm steps
+    counts = np.searchsorted(z, heights + band, "right") - np.searchsorted(z, heights - band, "left")
+    best = int(np.argmax(counts))
+    if counts[best] < cfg.ceiling_min_vertices:
+        return None
+    height = float(np.median(z[np.abs(z - heights[best]) <= band]))
+    if int((verts[:, 2] > height + band).sum()) >= cfg.ceiling_min_vertices:
+        return None  # something stands above it: the underside of a thing hanging in the room
+    return height
 
 
 @dataclass
@@ -479,7 +518,10 @@ def wall_superpoints(
         proud = np.bincount(g.label[mine], sp.points[mine] @ np.asarray(plane["normal"]) + plane["offset"], n)
         proud = proud / np.maximum(np.bincount(g.label[mine], minlength=n), 1)
         step = np.linalg.norm(g.colour - wall_colour, axis=1) / np.sqrt(3.0)
-        cand = (which == plane["id"]) & ((step >= cfg.flush_colour_step) | (proud >= cfg.flush_offset))
+        # the wall in a shadow (under a wall shelf, behind furniture) differs in colour but is no picture:
+        # taken as one, it joins the shelf casting it and buries the shelf in wall
+        coloured = (step >= cfg.flush_colour_step) & ~_shaded(g.colour, wall_colour, cfg.flush_shadow_tint)
+        cand = (which == plane["id"]) & (coloured | (proud >= cfg.flush_offset))
         flush |= cand & hangs & (extent <= cfg.flush_max_extent)
     # a hanging superpoint off every plane but lying wholly within ``structure_band`` in front of a wall,
     # along its stretch, is a piece of something hung on it (a clock's rim and face stand 2-4 cm proud,
@@ -489,6 +531,14 @@ def wall_superpoints(
     which[off] = near[off]
     flush |= off
     return which, flush
+
+
+def _shaded(colours: NDArray, wall_colour: NDArray, tint: float) -> NDArray[np.bool_]:
+    """Whether each colour [s, 3] (RGB in [0, 1]) is the wall's colour [3] darkened: a multiple k < 1 of it
+    leaves less than ``tint`` (RGB distance / sqrt 3) of the colour unexplained (a shadow keeps the hue)."""
+    k = colours @ wall_colour / max(float(wall_colour @ wall_colour), 1e-9)
+    rest = np.linalg.norm(colours - k[:, None] * wall_colour, axis=1) / np.sqrt(3.0)
+    return (k < 1.0) & (rest < tint)
 
 
 def _near_wall(sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig) -> NDArray[np.int64]:
@@ -955,14 +1005,30 @@ def _is_wall_piece(p: NDArray, cfg: SegmentConfig) -> bool:
     return bool(np.subtract(*np.percentile(across, [95, 5])) < cfg.sliver_thickness)
 
 
+def _nearest_wall(p: NDArray, planes: list[dict[str, Any]]) -> int:
+    """Id of the wall nearest (by median distance) to the points [k, 3]; 0 when there is no wall."""
+    walls = [q for q in planes if q["kind"] == "wall"]
+    if not walls:
+        return 0
+    gaps = [float(np.median(np.abs(p @ np.asarray(q["normal"]) + q["offset"]))) for q in walls]
+    return int(walls[int(np.argmin(gaps))]["id"])
+
+
+def _in_shadow(colours: NDArray, wall_colour: NDArray | None, cfg: SegmentConfig) -> bool:
+    """Whether a region's colours [k, 3] (RGB in [0, 1]) are, on average, its wall's colour [3] darkened
+    (``_shaded``): a sharp outline of such a region is the edge of a shadow, not of a picture."""
+    if wall_colour is None:
+        return False
+    return bool(_shaded(colours.mean(axis=0)[None], wall_colour, cfg.flush_shadow_tint)[0])
+
+
 def _faces_wall(p: NDArray, normals: NDArray, planes: list[dict[str, Any]], cfg: SegmentConfig) -> bool:
     """Whether most points [k, 3] of a region lie with their normals [k, 3] within ``plane_normal_deg`` of
     the normal of the wall nearest to them (by median distance)."""
-    walls = [q for q in planes if q["kind"] == "wall"]
-    if not walls:
+    wall = _nearest_wall(p, planes)
+    if wall == 0:
         return False
-    gaps = [float(np.median(np.abs(p @ np.asarray(q["normal"]) + q["offset"]))) for q in walls]
-    n = np.asarray(walls[int(np.argmin(gaps))]["normal"])
+    n = np.asarray(next(q["normal"] for q in planes if q["kind"] == "wall" and q["id"] == wall))
     return bool((np.abs(normals @ n) > np.cos(np.radians(cfg.plane_normal_deg))).mean() >= 0.5)
 
 
@@ -982,7 +1048,8 @@ def _filter_regions(
     """Regions renumbered 1..k after dropping the too small, the too large (leftovers of the room), slivers
     of the structure (a region within ``structure_band`` of the floor, walls and ceiling and thinner than
     ``sliver_thickness`` across them: the rounded corner where a wall meets the ceiling) and wall patches
-    that are not flush objects (touching the floor or ceiling, as a door does, or of the wall's colour)."""
+    that are not flush objects (touching the floor or ceiling, as a door does, or of the wall's colour, or
+    outlined only as a shadow is)."""
     g = sp.graph
     point_region = region[g.label]
     out = np.zeros_like(region)
@@ -990,6 +1057,7 @@ def _filter_regions(
     ceiling = [float(p["height"]) for p in planes if p["kind"] == "ceiling"]
     top = ceiling[0] if ceiling else np.inf
     normals = {int(p["id"]): (np.asarray(p["normal"]), float(p["offset"])) for p in planes if p["kind"] == "wall"}
+    paint = {w: np.median(sp.colours[sp.wall == w], axis=0) for w in normals if (sp.wall == w).any()}
     nxt = 1
     order = np.argsort(point_region, kind="stable")
     bounds = np.searchsorted(point_region[order], np.arange(int(region.max()) + 2))
@@ -1018,7 +1086,8 @@ def _filter_regions(
             proud = float(np.median(p @ n + d))
             edge = _rim_step(g, (inside ^ outside) & (rim_wall == wall))
             # with masks the region is already a consensus of views: hanging clear is enough
-            apart = flush_by_masks or edge >= cfg.flush_edge_step or proud >= cfg.flush_offset
+            outline = edge >= cfg.flush_edge_step and not _in_shadow(sp.colours[idx], paint.get(wall), cfg)
+            apart = flush_by_masks or outline or proud >= cfg.flush_offset
             if hangs and ext <= cfg.flush_max_extent and apart:
                 counts["flush_objects"] += 1
                 out[region == r] = nxt
@@ -1040,8 +1109,10 @@ def _filter_regions(
             # and faces the room as the wall does (a stretch of the wall whose fused normals stray off the
             # plane's, and so stayed off it, lies in it and faces every way)
             edge = _rim_step(g, (inside ^ outside) & (rim_wall > 0))
+            near = paint.get(_nearest_wall(p, planes))
+            outline = edge >= cfg.flush_edge_step and not _in_shadow(sp.colours[idx], near, cfg)
             proud = float(np.median(dist)) >= cfg.flush_offset and _faces_wall(p, sp.normals[idx], planes, cfg)
-            if flush_by_masks or edge >= cfg.flush_edge_step or proud:
+            if flush_by_masks or outline or proud:
                 sliver = False
         if sliver:
             counts["joined_structure"] += 1

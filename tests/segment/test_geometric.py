@@ -1,6 +1,7 @@
 """The label-free front end on a tiny synthetic room: planes removed, objects found and rendered back
-into every frame, labels 'object' without CLIP, zero-shot labels with a tiny random CLIP, and the
-empty-scene error."""
+into every frame, labels 'object' without CLIP, zero-shot labels with a tiny random CLIP, the
+empty-scene error; on small point sets, a ceiling seen only along a wall (and a pendant lamp that is none)
+and a shadow on a wall that is no flush object."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from rescene_core.capture.importers.layouts import write_rgbd
 from rescene_core.capture.synth import make_scene
 from rescene_core.segment import SegmentConfig, SegmentError, segment_geometric
 from rescene_core.segment.evaluate import instance_scores, mask_iou_table, synth_object_sizes
+from rescene_core.segment.geometric import ScanPoints, _structure, scan_points, wall_superpoints
 
 
 @pytest.fixture(scope="module")
@@ -106,3 +108,84 @@ def test_zero_shot_labels_without_torch_names_the_extra(tiny, segmented, monkeyp
     objects = [i for i, (lab, st) in segmented.labels.items() if not st]
     with pytest.raises(SegmentError, match=r"pip install 'rescene\[clip\]'"):
         zero_shot_labels(tiny.arrays.rgb, segmented.masks, objects, tmp_path / "clip.pt", "ViT-B-32", ("chair",))
+
+
+def _box_room(extra: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices [v, 3] and unit normals [v, 3] of a 4 x 3 x 2.8 m room's floor and walls (5 cm grid, normals
+    into the room) with no ceiling, plus the ``extra`` (points, normals) surfaces."""
+    s = np.arange(0.0, 4.0, 0.05)
+    t = np.arange(0.0, 3.0, 0.05)
+    h = np.arange(0.0, 2.8, 0.05)
+    fx, fy = np.meshgrid(s, t)
+    parts = [(np.c_[fx.ravel(), fy.ravel(), np.zeros(fx.size)], np.tile([0.0, 0.0, 1.0], (fx.size, 1)))]
+    for along, fixed, axis, normal in ((s, 0.0, 1, [0, 1, 0]), (s, 3.0, 1, [0, -1, 0]),
+                                       (t, 0.0, 0, [1, 0, 0]), (t, 4.0, 0, [-1, 0, 0])):  # fmt: skip
+        a, z = np.meshgrid(along, h)
+        p = np.zeros((a.size, 3))
+        p[:, 1 - axis], p[:, axis], p[:, 2] = a.ravel(), fixed, z.ravel()
+        parts.append((p, np.tile(np.asarray(normal, float), (a.size, 1))))
+    parts += extra
+    return np.concatenate([p for p, _ in parts]), np.concatenate([n for _, n in parts])
+
+
+def _patch(x: tuple[float, float], y: tuple[float, float], z: float, normal_z: float) -> tuple[np.ndarray, np.ndarray]:
+    """A horizontal patch (2 cm grid) at height z (m) facing up (normal_z 1) or down (-1)."""
+    gx, gy = np.meshgrid(np.arange(*x, 0.02), np.arange(*y, 0.02))
+    p = np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, z)]
+    return p, np.tile([0.0, 0.0, normal_z], (len(p), 1))
+
+
+def test_a_ceiling_seen_only_along_a_wall_is_structure():
+    # a 16 cm strip of ceiling along one wall: too few points for the plane search, yet the room's top
+    strip = _patch((0.02, 1.02), (0.02, 0.18), 2.8, -1.0)
+    verts, normals = _box_room([strip])
+    cams = np.array([[2.0, 1.5, 1.6], [1.0, 1.0, 1.5]])
+    labels, planes = _structure(verts, normals, cams, SegmentConfig())
+    ceiling = [p for p in planes if p["kind"] == "ceiling"]
+    assert len(ceiling) == 1 and ceiling[0]["found_by"] == "downward slab"
+    assert abs(ceiling[0]["height"] - 2.8) < 0.01
+    assert (labels[-len(strip[0]) :] == ceiling[0]["id"]).all()
+    assert sum(p["kind"] == "wall" for p in planes) == 4
+
+
+def test_a_pendant_lamp_is_no_ceiling():
+    # the underside of a shade hanging above the cameras, its top above it and no ceiling seen: no ceiling
+    under = _patch((1.8, 2.2), (1.3, 1.7), 2.3, -1.0)
+    above = _patch((1.85, 2.15), (1.35, 1.65), 2.55, 1.0)
+    verts, normals = _box_room([under, above])
+    cams = np.array([[2.0, 1.5, 1.6], [1.0, 1.0, 1.5]])
+    labels, planes = _structure(verts, normals, cams, SegmentConfig())
+    assert not [p for p in planes if p["kind"] == "ceiling"]
+    assert (labels[-len(under[0]) - len(above[0]) :] == 0).all()
+
+
+def _painted_wall() -> tuple[ScanPoints, list[dict], np.ndarray, np.ndarray]:
+    """A 2 x 2 m wall (the plane x = 0, 1 cm grid) painted light grey, with a shadow (the grey darkened to
+    70 %) and a brown picture flat on it; the scan points and the planes, with masks of the shadow's and the
+    picture's vertices."""
+    y, z = np.meshgrid(np.arange(0.0, 2.0, 0.01), np.arange(0.5, 2.5, 0.01))
+    verts = np.c_[np.zeros(y.size), y.ravel(), z.ravel()]
+    normals = np.tile([1.0, 0.0, 0.0], (len(verts), 1))
+    shadow = (verts[:, 1] > 0.2) & (verts[:, 1] < 0.8) & (verts[:, 2] > 1.0) & (verts[:, 2] < 1.4)
+    picture = (verts[:, 1] > 1.2) & (verts[:, 1] < 1.8) & (verts[:, 2] > 1.0) & (verts[:, 2] < 1.6)
+    grey = np.array([0.8, 0.8, 0.82])
+    colours = np.tile(grey, (len(verts), 1))
+    colours[shadow] = 0.7 * grey
+    colours[picture] = [0.55, 0.4, 0.25]
+    wall = {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0, "span": [-2.05, 0.05]}
+    planes = [{"kind": "floor", "id": 1, "vertices": 0}, {**wall, "vertices": len(verts)}]
+    struct = np.full(len(verts), 2, np.int64)
+    return scan_points(verts, normals, colours, struct, planes, SegmentConfig()), planes, shadow, picture
+
+
+def test_a_shadow_on_a_wall_is_no_flush_object():
+    # a shadow keeps the wall's hue: unlike the picture it is no flush candidate, so it cannot join the
+    # shelf that casts it; with the shadow test off, colour alone made it one
+    sp, planes, shadow, picture = _painted_wall()
+
+    def flush_of_vertex(cfg: SegmentConfig) -> np.ndarray:
+        return wall_superpoints(sp, planes, cfg)[1][sp.graph.label[sp.vertex_point]]
+
+    flush = flush_of_vertex(SegmentConfig())
+    assert flush[shadow].mean() < 0.1 and flush[picture].mean() > 0.9
+    assert flush_of_vertex(SegmentConfig(flush_shadow_tint=0.0))[shadow].mean() > 0.9
