@@ -20,6 +20,7 @@
    lamp's base and stem under its shade, parted from it by colour and the crease at the rim).
    A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres).
+   A low flat region lying on a mattress (a large top at a bed's height) joins it: a bed's pillows.
    Wall superpoints stay wall unless their colour differs from the wall's (not as a shadow's does: it
    keeps the wall's hue) or they stand proud of it, and hanging superpoints just off a wall's plane (a
    clock's rim and face) count with them; such a region hanging clear of the floor and ceiling with a
@@ -195,6 +196,23 @@ class SegmentConfig(BaseModel):
     stem_width_fraction: float = 0.5
     """... whose upper end is narrower than this fraction of the other both ways is its stem (a table lamp's
     base and stem under its shade) and joins it."""
+    bedding_min_height: float = 0.35
+    """A mattress's top is at least this high above the floor (m): a low platform bed's is at 0.35-0.45 m..."""
+    bedding_max_height: float = 0.68
+    """... and at most this high (m): a tall bed's is at 0.6-0.65 m; a desk's or a dining table's top is at
+    0.72-0.78 m."""
+    bedding_min_length: float = 1.8
+    """A mattress's top is at least this long (m): the shortest mattress, a single's, is 1.9 m, less what
+    the fusion may lose at its foot; a coffee table or a sideboard is shorter..."""
+    bedding_min_width: float = 0.85
+    """... and at least this wide (m): the narrowest, a European single's, is 0.9 m; a sofa's seat is
+    0.55-0.75 m deep."""
+    bedding_duvet: float = 0.08
+    """A mattress's level reaches this far above the lowest point of what lies on it (m): a duvet over part of
+    the mattress is 3-8 cm thick, and a pillow may lie on the mattress beside it."""
+    bedding_flatness: float = 0.5
+    """A region lying on a mattress no taller than this fraction of its smaller horizontal extent is bedding
+    and joins the bed (a pillow is 10-20 cm thick on 40-50 cm); a lamp or a person sitting is taller."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -624,6 +642,7 @@ def merge_superpoints(
     )
     region, stats["stems_joined"] = _join_stems(sp, region, cfg)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
+    region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
     return sp, region, which, stats
@@ -854,6 +873,60 @@ def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -
                 continue  # a broad top: a body under the other (a book stack under another), not a stem
             remap[low] = top
             joined += 1
+    return remap[region], joined
+
+
+def _bedding_top(tops: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether a body with bounds ``lo``, ``hi`` [3] (m) lies on a mattress: the upward-facing points ``tops``
+    [k, 3] of the region it touches, from ``support_band`` below its lowest height to ``bedding_duvet`` above
+    it, form a level between ``bedding_min_height`` and ``bedding_max_height`` above the floor, at least
+    ``bedding_min_length`` by ``bedding_min_width`` across, that reaches beyond the body both ways and lies
+    under its footprint (``min_contacts`` points)."""
+    level = tops[(tops[:, 2] >= lo[2] - cfg.support_band) & (tops[:, 2] <= lo[2] + cfg.bedding_duvet)]
+    if len(level) < cfg.top_min_points:
+        return False
+    height = float(np.median(level[:, 2]))
+    if not cfg.bedding_min_height <= height <= cfg.bedding_max_height:
+        return False
+    span = np.ptp(level[:, :2], axis=0)
+    if span.max() < cfg.bedding_min_length or span.min() < cfg.bedding_min_width:
+        return False
+    if np.any(hi[:2] - lo[:2] >= span):
+        return False  # as broad as the top one way: the mattress itself on its frame, not bedding on it
+    grown_lo, grown_hi = lo[:2] - cfg.support_band, hi[:2] + cfg.support_band
+    under = np.all((level[:, :2] >= grown_lo) & (level[:, :2] <= grown_hi), axis=1)
+    return int(under.sum()) >= cfg.min_contacts
+
+
+def _join_bedding(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
+    """A low flat region (no taller than ``bedding_flatness`` of its smaller horizontal extent) lying on a
+    mattress of a region it touches (``_bedding_top``) joins that region: a bed's pillows, parted from the
+    mattress by the support cut, by the split at a top or by their colour, are part of the bed. A monitor or
+    a lamp stands taller than it is deep; a book stack lies on a top too small or too high for a mattress; a
+    sofa's seat is shallower than a mattress and its back cushions stand upright. ``region`` [s] (0: none);
+    returns the regions and how many joined."""
+    g = sp.graph
+    n = int(region.max(initial=0)) + 1
+    lo, hi = _region_bounds(g, region, n)
+    flat = (hi[:, 2] - lo[:, 2]) <= cfg.bedding_flatness * (hi[:, :2] - lo[:, :2]).min(axis=1)
+    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+    ok = (ra > 0) & (rb > 0) & (ra != rb) & (flat[ra] | flat[rb])
+    key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
+    uk, inv = np.unique(key, return_inverse=True)
+    contacts = np.bincount(inv, g.contacts[ok], len(uk))
+    point_region = region[g.label]
+    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
+    remap = np.arange(n)
+    joined = 0
+    for k in uk[contacts >= cfg.min_contacts].tolist():
+        for body, bed in ((k // n, k % n), (k % n, k // n)):
+            if not flat[body] or remap[body] != body or remap[bed] != bed:
+                continue
+            if _bedding_top(sp.points[up & (point_region == bed)], lo[body], hi[body], cfg):
+                remap[body] = bed
+                joined += 1
+    for _ in range(3):  # a pillow joins a region that may itself have joined another: follow the chain
+        remap = remap[remap]
     return remap[region], joined
 
 

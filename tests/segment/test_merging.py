@@ -10,6 +10,7 @@ from rescene_core.segment.geometric import (
     SegmentConfig,
     _attach_legs,
     _faces_wall,
+    _join_bedding,
     _join_stems,
     _rests_on,
 )
@@ -188,3 +189,29 @@ def test_a_lamps_stem_under_its_shade_joins_it_a_stack_under_a_stack_or_its_nigh
     # a stem reaching out from under its shade (a floor lamp's arm beside a shelf) stays apart
     sp, region = _scan([base + [0.3, 0.0, 0.0], shade])
     assert _join_stems(sp, region, CFG)[1] == 0
+
+
+def _lying_on(top: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """The points of a top [k, 3] outside a body's footprint (the top under a body is hidden)."""
+    lo, hi = body[:, :2].min(axis=0), body[:, :2].max(axis=0)
+    return top[~np.all((top[:, :2] >= lo) & (top[:, :2] <= hi), axis=1)]
+
+
+def test_a_pillow_on_a_mattress_joins_the_bed_a_lamp_on_it_or_a_pillow_on_a_table_does_not():
+    # a double bed: its mattress top 1.4 by 2.0 m at z = 0.52, its side down to the frame at 0.3
+    pillow = _box((0.1, 0.1, 0.545), (0.7, 0.5, 0.645))  # 10 cm thick on 60 by 40 cm, touching the top
+    lamp = _box((1.0, 1.2, 0.545), (1.2, 1.4, 0.9))  # taller than it is broad
+    mattress = _lying_on(_lying_on(_box((0.0, 0.0, 0.52), (1.4, 2.0, 0.52)), pillow), lamp)
+    side = _box((0.0, 0.0, 0.3), (0.0, 2.0, 0.5))
+    sp, region = _scan([np.concatenate([mattress, side]), pillow, lamp])
+    out, joined = _join_bedding(sp, region, CFG)
+    assert joined == 1 and out[1] == out[0] and out[2] != out[0]
+    # the pillow on a coffee table (1.0 by 0.6 m, too small) or on a dining table (2.0 by 1.0 m at 0.75 m,
+    # too high) stays apart from it
+    up = np.array([0.0, 0.0, 0.23])
+    for table, body in (
+        (_box((-0.2, 0.0, 0.52), (0.8, 0.6, 0.52)), pillow),
+        (_box((-0.3, -0.2, 0.75), (1.7, 0.8, 0.75)), pillow + up),
+    ):
+        sp, region = _scan([_lying_on(table, body), body])
+        assert _join_bedding(sp, region, CFG)[1] == 0
