@@ -39,17 +39,13 @@ from rescene_core.assembly.refine import containment_region, is_outside
 from rescene_core.assembly.room import fit_translation
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
-from rescene_core.records import InstanceId, Relation, Root
+from rescene_core.records import InstanceId
 
 
 def _mover(state: LayoutState, i: InstanceId) -> InstanceId:
     """The object a push on ``i`` moves: the top of its chain of ``rests-on`` object edges."""
-    forest = state.forest
-    while i in forest.edges and forest.edges[i].relation is Relation.RESTS_ON:
-        parent = forest.edges[i].parent
-        if isinstance(parent, Root):
-            break
-        i = InstanceId(parent)
+    while (support := state.forest.support_of(i)) is not None:
+        i = support
     return i
 
 
@@ -73,8 +69,7 @@ def lift_onto(state: LayoutState, a: InstanceId, b: InstanceId) -> tuple[Instanc
     up = state.room.up
     heights = {i: state.vertices(i) @ up for i in (a, b)}
     for upper, lower in ((a, b), (b, a)):
-        edge = state.forest.edges.get(upper)
-        if edge is None or edge.relation is not Relation.RESTS_ON or isinstance(edge.parent, Root):
+        if state.forest.support_of(upper) is None:
             continue
         below = float(heights[lower].max() - heights[upper].min())
         if 0.0 < below <= LIFT_MAX and heights[upper].max() > heights[lower].max():

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import networkx as nx
 
-from rescene_core.records import Edge, InstanceId, Root, SceneGraph
+from rescene_core.records import Edge, InstanceId, Relation, Root, SceneGraph
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,14 @@ class Forest:
     def subtree(self, node: InstanceId) -> list[InstanceId]:
         """``node`` and all its descendants."""
         return [node, *nx.descendants(self.digraph, node)] if node in self.digraph else [node]
+
+    def support_of(self, node: InstanceId) -> InstanceId | None:
+        """The object ``node`` rests on (its ``rests-on`` edge to an object); None on the floor, mounted on a
+        wall, or without an edge."""
+        edge = self.edges.get(node)
+        if edge is None or edge.relation is not Relation.RESTS_ON or isinstance(edge.parent, Root):
+            return None
+        return InstanceId(int(edge.parent))
 
     def root_of(self, node: InstanceId) -> InstanceId:
         """The topmost object ancestor of ``node`` (itself when its parent is a structural root)."""

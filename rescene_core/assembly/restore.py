@@ -43,7 +43,7 @@ from rescene_core.assembly.evidence import (
 from rescene_core.assembly.refine import is_outside
 from rescene_core.assembly.state import LayoutState
 from rescene_core.assembly.transforms import translation
-from rescene_core.records import InstanceId, Relation, Root
+from rescene_core.records import InstanceId, Relation
 
 SEARCH_STEPS = 6
 """Bisection steps for the longest fraction of a step back that keeps every constraint (1/64 of the step),
@@ -89,18 +89,18 @@ def _keeps_walls(state: LayoutState, i: InstanceId, walls: list, gaps: list[floa
 
 def _supported(state: LayoutState, child: InstanceId) -> bool:
     """Whether ``child``'s footprint centre lies over a support level of its object parent at its bottom."""
-    edge = state.forest.edges.get(child)
-    if edge is None or isinstance(edge.parent, Root) or edge.relation is not Relation.RESTS_ON:
+    parent = state.forest.support_of(child)
+    if parent is None:
         return True
     fp = state.footprint(child)
     bottom = float(state.room.floor_distance(state.vertices(child)).min())
     centre = fp.centroid
-    smallest = MIN_FACE_SHARE * fp.area if not state.objects[InstanceId(edge.parent)].exact_shape else 0.0
+    smallest = MIN_FACE_SHARE * fp.area if not state.objects[parent].exact_shape else 0.0
     return any(
         abs(level.height - bottom) <= SUPPORT_HEIGHT_TOLERANCE
         and level.polygon.area >= smallest
         and level.polygon.contains(Point(centre.x, centre.y))
-        for level in support_levels(state, InstanceId(edge.parent))
+        for level in support_levels(state, parent)
     )
 
 

@@ -65,7 +65,9 @@ def completion_surface(completion: Completion) -> tuple[NDArray[np.float64], NDA
     return pts, np.vstack([fan, fan[:, ::-1]])
 
 
-def clear_of_vertices(vertices: NDArray[np.float64], origin: NDArray[np.float64], unit: NDArray[np.float64]):
+def clear_of_vertices(
+    vertices: NDArray[np.float64], origin: NDArray[np.float64], unit: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """``origin`` [3] moved along the plane's unit normal ``unit`` [3] (towards the side kept, by the fewest
     steps of 2 ``CUT_CLEARANCE``) until no vertex of ``vertices`` [v, 3] lies within ``CUT_CLEARANCE`` of the
     plane; ``origin`` itself when no such step up to 32 clears them."""

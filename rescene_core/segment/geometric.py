@@ -526,13 +526,14 @@ def wall_superpoints(
     # a superpoint that reaches down to the floor or up to the ceiling is no part of a flush object (a door
     # beside a mirror, of the wood of its frame, would otherwise take the mirror into the wall)
     hangs = (g.lo[:, 2] >= cfg.flush_min_height) & (g.hi[:, 2] <= _ceiling_height(planes) - cfg.flush_ceiling_gap)
+    paint = wall_colours(sp)
     for plane in planes:
         if plane["kind"] != "wall":
             continue
         mine = sp.wall == plane["id"]
         if not mine.any():
             continue
-        wall_colour = np.median(sp.colours[mine], axis=0)
+        wall_colour = paint[int(plane["id"])]
         proud = np.bincount(g.label[mine], sp.points[mine] @ np.asarray(plane["normal"]) + plane["offset"], n)
         proud = proud / np.maximum(np.bincount(g.label[mine], minlength=n), 1)
         step = np.linalg.norm(g.colour - wall_colour, axis=1) / np.sqrt(3.0)
@@ -549,6 +550,11 @@ def wall_superpoints(
     which[off] = near[off]
     flush |= off
     return which, flush
+
+
+def wall_colours(sp: ScanPoints) -> dict[int, NDArray[np.float64]]:
+    """The colour [3] (RGB in [0, 1]) of each wall (by id) that scan points lie on: their median colour."""
+    return {int(w): np.median(sp.colours[sp.wall == w], axis=0) for w in np.unique(sp.wall[sp.wall > 0])}
 
 
 def _shaded(colours: NDArray, wall_colour: NDArray, tint: float) -> NDArray[np.bool_]:
@@ -684,7 +690,7 @@ def split_bodies_on_tops(
     the new superpoint graph, the region and wall of each new superpoint, and how many bodies were split."""
     g = sp.graph
     point_region = region[g.label].copy()
-    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
+    up = _facing_up(sp.normals)
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     nxt = int(region.max(initial=0)) + 1
     split = 0
@@ -799,7 +805,7 @@ def _rejoin_enclosed(
     g = sp.graph
     region = region.copy()
     joined = 0
-    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
+    up = _facing_up(sp.normals)
     for _ in range(3):
         n = int(region.max()) + 1
         lo, hi = _region_bounds(g, region, n)
@@ -838,6 +844,27 @@ def _rejoin_enclosed(
     return region, joined
 
 
+def _facing_up(normals: NDArray) -> NDArray[np.bool_]:
+    """Whether each unit normal [k, 3] (z up) is within 15 degrees of up: the points of a horizontal top."""
+    return normals[:, 2] > np.cos(np.radians(15.0))
+
+
+def _touching_regions(
+    g: SuperpointGraph, region: NDArray[np.int64], n: int, min_contacts: int, among: NDArray[np.bool_] | None = None
+) -> list[tuple[int, int]]:
+    """Pairs (a, b), a < b, of regions (``region`` [s] of each superpoint of graph ``g``, ids below ``n``, 0:
+    none) whose superpoints touch with at least ``min_contacts`` graph contacts; with ``among`` [n], only
+    pairs of which at least one region is marked."""
+    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
+    ok = (ra > 0) & (rb > 0) & (ra != rb)
+    if among is not None:
+        ok &= among[ra] | among[rb]
+    key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
+    uk, inv = np.unique(key, return_inverse=True)
+    contacts = np.bincount(inv, g.contacts[ok], len(uk))
+    return [(k // n, k % n) for k in uk[contacts >= min_contacts].tolist()]
+
+
 def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
     """A region below another that it touches, lying under that one's footprint (within ``stem_margin``), its
     top within ``support_band`` of the other's lowest point and its upper end (the points within
@@ -849,16 +876,11 @@ def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -
     region = region.copy()
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
-    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
-    ok = (ra > 0) & (rb > 0) & (ra != rb)
-    key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
-    uk, inv = np.unique(key, return_inverse=True)
-    contacts = np.bincount(inv, g.contacts[ok], len(uk))
     point_region = region[g.label]
     remap = np.arange(n)
     joined = 0
-    for k in uk[contacts >= cfg.min_contacts].tolist():
-        for low, top in ((k // n, k % n), (k % n, k // n)):
+    for a, b in _touching_regions(g, region, n, cfg.min_contacts):
+        for low, top in ((a, b), (b, a)):
             if remap[low] != low or remap[top] != top:
                 continue
             if abs(hi[low, 2] - lo[top, 2]) > cfg.support_band or lo[low, 2] >= lo[top, 2]:
@@ -909,17 +931,12 @@ def _join_bedding(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig)
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
     flat = (hi[:, 2] - lo[:, 2]) <= cfg.bedding_flatness * (hi[:, :2] - lo[:, :2]).min(axis=1)
-    ra, rb = region[g.pairs[:, 0]], region[g.pairs[:, 1]]
-    ok = (ra > 0) & (rb > 0) & (ra != rb) & (flat[ra] | flat[rb])
-    key = np.minimum(ra[ok], rb[ok]) * n + np.maximum(ra[ok], rb[ok])
-    uk, inv = np.unique(key, return_inverse=True)
-    contacts = np.bincount(inv, g.contacts[ok], len(uk))
     point_region = region[g.label]
-    up = sp.normals[:, 2] > np.cos(np.radians(15.0))
+    up = _facing_up(sp.normals)
     remap = np.arange(n)
     joined = 0
-    for k in uk[contacts >= cfg.min_contacts].tolist():
-        for body, bed in ((k // n, k % n), (k % n, k // n)):
+    for a, b in _touching_regions(g, region, n, cfg.min_contacts, among=flat):
+        for body, bed in ((a, b), (b, a)):
             if not flat[body] or remap[body] != body or remap[bed] != bed:
                 continue
             if _bedding_top(sp.points[up & (point_region == bed)], lo[body], hi[body], cfg):
@@ -1130,7 +1147,7 @@ def _filter_regions(
     ceiling = [float(p["height"]) for p in planes if p["kind"] == "ceiling"]
     top = ceiling[0] if ceiling else np.inf
     normals = {int(p["id"]): (np.asarray(p["normal"]), float(p["offset"])) for p in planes if p["kind"] == "wall"}
-    paint = {w: np.median(sp.colours[sp.wall == w], axis=0) for w in normals if (sp.wall == w).any()}
+    paint = wall_colours(sp)
     nxt = 1
     order = np.argsort(point_region, kind="stable")
     bounds = np.searchsorted(point_region[order], np.arange(int(region.max()) + 2))
