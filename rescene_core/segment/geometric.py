@@ -181,11 +181,16 @@ class SegmentConfig(BaseModel):
     body_min_thickness: float = 0.05
     """A region this thick every way or more can be a body resting on a top; a thinner one is a board or panel
     of the piece (a shelf board's top face and front edge fuse 2-4 cm thick; a stack of two books is 5 cm) (m)."""
-    top_min_points: int = 40
-    """Fewest upward-facing points in a 3 cm slab that make a horizontal top a body can stand on (0.025 m^2)."""
+    top_min_points: int = 25
+    """Fewest upward-facing points in a 3 cm slab that make a horizontal top a body can stand on (0.016 m^2:
+    a shelf seen between the things standing on it shows little more)."""
     top_clearance: float = 0.015
     """A body on a top is split off at this height above the top's plane (m): the fused top is about one
     voxel thick."""
+    stored_min_height: float = 0.05
+    """A shelf of a case at least this high, with a board of the case over what stands on it, can carry a
+    body of its own (a bookcase's lowest shelf is 5-10 cm above the floor; without a board over it, a top
+    lower than ``support_min_height`` carries none) (m)."""
     top_margin: float = 0.05
     """A top reaches beyond a body's footprint on a side when it extends this far past it there (m)..."""
     top_sides: int = 3
@@ -654,11 +659,11 @@ def merge_superpoints(
     return sp, region, which, stats
 
 
-def _top_heights(z: NDArray[np.float64], cfg: SegmentConfig) -> list[float]:
+def _top_heights(z: NDArray[np.float64], cfg: SegmentConfig, min_height: float) -> list[float]:
     """Heights (m) of the horizontal tops among upward-facing points at heights ``z`` [k]: 1 cm bins with
     at least ``top_min_points`` points in a bin and its two neighbours, each the highest-count bin of its
-    own neighbourhood, above ``support_min_height``."""
-    z = z[z >= cfg.support_min_height]
+    own neighbourhood, above ``min_height``."""
+    z = z[z >= min_height]
     if len(z) < cfg.top_min_points:
         return []
     edges = np.arange(z.min() - 0.005, z.max() + 0.015, 0.01)
@@ -696,11 +701,12 @@ def split_bodies_on_tops(
     split = 0
     off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
     z = sp.points[:, 2]
+    smooth = ~edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)[1]
     for r in range(1, int(region.max(initial=0)) + 1):
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
             continue
-        for h in _top_heights(z[mine & up], cfg):
+        for h in _top_heights(z[mine & up], cfg, min(cfg.support_min_height, cfg.stored_min_height)):
             mine = (point_region == r) & off_wall
             slab = mine & up & (np.abs(z - h) <= cfg.support_band / 2)
             if slab.sum() < cfg.top_min_points:
@@ -720,7 +726,7 @@ def split_bodies_on_tops(
             down = np.unique(np.r_[comp[i0[above[i0] & below[i1]]], comp[i1[above[i1] & below[i0]]]])
             ids, counts = np.unique(comp[above], return_counts=True)
             for c in ids[counts >= cfg.min_segment_points].tolist():
-                if c in down:
+                if c in down or h < cfg.support_min_height:
                     continue
                 body = above & (comp == c)
                 p = sp.points[body]
@@ -733,6 +739,13 @@ def split_bodies_on_tops(
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
+            # what the region's frame holds fast above the top, or all above a top too low to carry bodies
+            # of their own: a body stored on the shelf of a case
+            stuck = above & (np.isin(comp, down) | (h < cfg.support_min_height)) & (point_region == r)
+            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, smooth, cfg):
+                point_region[body] = nxt
+                nxt += 1
+                split += 1
     if split == 0:
         return sp, region, which, 0
     key = g.label * nxt + point_region
@@ -742,6 +755,94 @@ def split_bodies_on_tops(
     _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
     graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
     return replace(sp, graph=graph), new_region, new_which, split
+
+
+def _stored_bodies(
+    sp: ScanPoints,
+    stuck: NDArray[np.bool_],
+    far_below: NDArray[np.bool_],
+    mine: NDArray[np.bool_],
+    h: float,
+    slab: NDArray[np.bool_],
+    smooth: NDArray[np.bool_],
+    cfg: SegmentConfig,
+) -> list[NDArray[np.bool_]]:
+    """Bodies stored on a shelf of a case, which the point graph joins to the case's back, sides or edges
+    (a book stack against a bookcase's back panel, flush with the shelf's front edge).
+
+    ``stuck`` [n]: the region's points above the top at height ``h`` (m) whose part of the point graph
+    reaches below the top; ``far_below`` [n]: the region's points more than ``support_band`` under the top
+    (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]: the top's points; ``smooth``
+    [e]: the point edges that are not concave creases. The stuck points are parted at their creases (a body
+    meets the case's back and the board over it at a concave corner; its own faces meet at convex ones).
+    A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
+    within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). A body
+    is stored when it has ``min_segment_points`` points, stands on the top (``_held_by_top``), is
+    ``body_min_thickness`` thick every way, is not upright (``_stored_upright``: a row of books standing
+    in a bookcase is the bookcase's) and has a board of the region over it (what has nothing over it, a
+    sofa's back cushion, is the piece's own). Returns the points [n] of each body."""
+    n_pts = int(stuck.sum())
+    if n_pts < cfg.min_segment_points:
+        return []
+    i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
+    local = np.cumsum(stuck) - 1
+    inner = stuck[i0] & stuck[i1]
+    keep = inner & smooth
+    adj = coo_matrix((np.ones(int(keep.sum())), (local[i0[keep]], local[i1[keep]])), shape=(n_pts, n_pts))
+    k, sub = connected_components(adj, directed=False)
+    part = np.full(len(stuck), -1, np.int64)
+    part[stuck] = sub
+    idx = np.flatnonzero(stuck)
+    p = sp.points[idx]
+    lo = np.full((k, 3), np.inf)
+    hi = np.full((k, 3), -np.inf)
+    np.minimum.at(lo, sub, p)
+    np.maximum.at(hi, sub, p)
+    count = np.bincount(sub, minlength=k)
+    held = np.zeros(k, bool)  # parts touching the region far under the top
+    held[part[i0[stuck[i0] & far_below[i1]]]] = True
+    held[part[i1[stuck[i1] & far_below[i0]]]] = True
+    cross = inner & (part[i0] != part[i1])
+    neighbours: dict[int, set[int]] = {}
+    for a, b in zip(part[i0[cross]].tolist(), part[i1[cross]].tolist(), strict=True):
+        neighbours.setdefault(a, set()).add(b)
+        neighbours.setdefault(b, set()).add(a)
+    top = sp.points[slab, :2]
+    tlo, thi = top.min(axis=0), top.max(axis=0)
+    case = sp.points[mine]
+    seeds = np.flatnonzero(~held & (lo[:, 2] <= h + cfg.support_band) & (count >= cfg.min_contacts))
+    taken = held.copy()
+    bodies = []
+    for s in seeds[np.argsort(-count[seeds], kind="stable")].tolist():
+        if taken[s]:
+            continue
+        body, blo, bhi = [s], lo[s].copy(), hi[s].copy()
+        frontier = [s]
+        while frontier:
+            grown = []
+            for c in frontier:
+                for t in neighbours.get(c, ()):
+                    if taken[t] or t in body:
+                        continue
+                    if np.all(lo[t, :2] >= blo[:2] - cfg.top_margin) and np.all(hi[t, :2] <= bhi[:2] + cfg.top_margin):
+                        body.append(t)
+                        grown.append(t)
+                        blo, bhi = np.minimum(blo, lo[t]), np.maximum(bhi, hi[t])
+            frontier = grown
+        blo[2] = min(blo[2], h)  # it stands on the top: its height counts from there
+        if count[body].sum() < cfg.min_segment_points or float(np.min(bhi - blo)) < cfg.body_min_thickness:
+            continue
+        centre = 0.5 * (blo[:2] + bhi[:2])
+        if np.any(centre < tlo) or np.any(centre > thi) or not _held_by_top(blo, bhi, top, cfg):
+            continue
+        if _stored_upright(case, blo, bhi, cfg):
+            continue  # books standing in a row: the bookcase's own
+        if not _under_board(case, blo, bhi, cfg):
+            continue  # nothing of the case over it: a cushion against a sofa's back
+        points = np.isin(part, body)
+        taken[body] = True
+        bodies.append(points)
+    return bodies
 
 
 def _sides_beyond(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> NDArray[np.bool_]:
@@ -832,7 +933,9 @@ def _rejoin_enclosed(
             if (g.count[mine] * inside).sum() < cfg.enclosed_fraction * pts[small]:
                 continue
             tops = sp.points[up_idx[up_bounds[big] : up_bounds[big + 1]]]
-            if not by_extent and _rests_on(tops, lo[small], hi[small], lo[big], hi[big], cfg):
+            board = not by_extent and _under_board(sp.points[point_region == big], lo[small], hi[small], cfg)
+            low = cfg.stored_min_height if board else cfg.support_min_height
+            if not by_extent and _rests_on(tops, lo[small], hi[small], lo[big], hi[big], low, cfg):
                 if not _stored_upright(sp.points[point_region == big], lo[small], hi[small], cfg):
                     continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
             remap[small] = big
@@ -947,15 +1050,17 @@ def _join_bedding(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig)
     return remap[region], joined
 
 
-def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: NDArray, cfg: SegmentConfig) -> bool:
+def _rests_on(
+    tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: NDArray, min_height: float, cfg: SegmentConfig
+) -> bool:
     """Whether a region with bounds ``lo``, ``hi`` [3] (m) stands on an upward-facing surface of a larger one
     (``tops`` [k, 3]: its points whose normal is within 15 degrees of up; bounds ``big_lo``, ``big_hi``):
     some of those points lie under its footprint at its lowest height (within ``support_band``), the top is
-    higher than ``support_min_height``, the region is at least ``body_min_thickness`` thick every way (no board
+    higher than ``min_height`` (m), the region is at least ``body_min_thickness`` thick every way (no board
     or panel), and it is narrower than the larger region both ways (a mattress spans its bed's frame and stays
     with it) or one way only with the top reaching ``top_margin`` beyond it on both sides the other way at
     its lowest height (``_sides_beyond``: a book stack as deep as its shelf, clear of the shelf's ends)."""
-    if min(hi - lo) < cfg.body_min_thickness or lo[2] < cfg.support_min_height - cfg.support_band:
+    if min(hi - lo) < cfg.body_min_thickness or lo[2] < min_height - cfg.support_band:
         return False  # a board or a panel of the larger one, not a body on it
     spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (big_hi[:2] - big_lo[:2])
     if spans.all():
@@ -967,6 +1072,13 @@ def _rests_on(tops: NDArray, lo: NDArray, hi: NDArray, big_lo: NDArray, big_hi: 
             return False
     under = np.all((tops[:, :2] >= lo[:2] - cfg.support_band) & (tops[:, :2] <= hi[:2] + cfg.support_band), axis=1)
     return int((under & level).sum()) >= cfg.min_contacts
+
+
+def _under_board(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether ``min_contacts`` of a case's points ``case`` [k, 3] lie over the footprint of what stands in
+    it (bounds ``lo``, ``hi`` [3], m), higher than its top: a shelf board over a book stack."""
+    over = np.all((case[:, :2] >= lo[:2]) & (case[:, :2] <= hi[:2]), axis=1) & (case[:, 2] > hi[2])
+    return int(over.sum()) >= cfg.min_contacts
 
 
 def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:

@@ -13,11 +13,13 @@ from rescene_core.segment.geometric import (
     _join_bedding,
     _join_stems,
     _rests_on,
+    _under_board,
 )
 from rescene_core.segment.superpoints import edge_weights, point_graph, superpoint_graph
 
 STEP = 0.025
 CFG = SegmentConfig()
+MIN_TOP = CFG.support_min_height  # the least height of a top that carries bodies of its own
 
 
 def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> np.ndarray:
@@ -33,13 +35,13 @@ def test_a_body_on_a_shelf_rests_on_it_and_a_board_or_a_mattress_does_not():
     stack = np.array([0.3, 0.1, 0.7]), np.array([0.5, 0.3, 0.85])
     under = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
     tops = shelf[~under]  # the shelf under the stack is hidden
-    assert _rests_on(tops, *stack, big_lo, big_hi, CFG)
+    assert _rests_on(tops, *stack, big_lo, big_hi, MIN_TOP, CFG)
     # a shelf board (2 cm thick) lies at the same height but is part of the frame
-    assert not _rests_on(tops, np.array([0.0, 0.0, 0.7]), np.array([0.6, 0.4, 0.72]), big_lo, big_hi, CFG)
+    assert not _rests_on(tops, np.array([0.0, 0.0, 0.7]), np.array([0.6, 0.4, 0.72]), big_lo, big_hi, MIN_TOP, CFG)
     # a body as wide as the larger region (a mattress in its bed's frame) stays with it
-    assert not _rests_on(tops, np.array([0.02, 0.02, 0.7]), np.array([0.98, 0.3, 0.9]), big_lo, big_hi, CFG)
+    assert not _rests_on(tops, np.array([0.02, 0.02, 0.7]), np.array([0.98, 0.3, 0.9]), big_lo, big_hi, MIN_TOP, CFG)
     # nothing under its footprint at its lowest height: it does not stand on this top
-    assert not _rests_on(tops, np.array([0.3, 0.1, 1.1]), np.array([0.5, 0.3, 1.3]), big_lo, big_hi, CFG)
+    assert not _rests_on(tops, np.array([0.3, 0.1, 1.1]), np.array([0.5, 0.3, 1.3]), big_lo, big_hi, MIN_TOP, CFG)
 
 
 def _scan(parts: list[np.ndarray]) -> tuple[ScanPoints, np.ndarray]:
@@ -172,7 +174,7 @@ def test_a_stack_as_deep_as_its_bookcase_rests_on_its_shelf_unless_it_lies_at_th
         ((np.array([0.0, 0.0, 0.5]), np.array([0.2, 0.25, 0.62])), False),  # at the shelf's end
     ):
         hidden = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
-        assert _rests_on(shelf[~hidden], *stack, big_lo, big_hi, CFG) is rests
+        assert _rests_on(shelf[~hidden], *stack, big_lo, big_hi, MIN_TOP, CFG) is rests
 
 
 def test_a_lamps_stem_under_its_shade_joins_it_a_stack_under_a_stack_or_its_nightstand_does_not():
@@ -215,3 +217,89 @@ def test_a_pillow_on_a_mattress_joins_the_bed_a_lamp_on_it_or_a_pillow_on_a_tabl
     ):
         sp, region = _scan([_lying_on(table, body), body])
         assert _join_bedding(sp, region, CFG)[1] == 0
+
+
+def test_a_low_top_carries_a_body_only_where_a_board_of_the_case_lies_over_it():
+    # a bookcase's lowest shelf, 7 cm above the floor, with a stack on it
+    shelf = _box((0.0, 0.0, 0.07), (0.64, 0.27, 0.07))
+    big_lo, big_hi = np.array([0.0, 0.0, 0.0]), np.array([0.64, 0.27, 1.8])
+    stack = np.array([0.22, 0.02, 0.07]), np.array([0.42, 0.22, 0.2])
+    hidden = np.all((shelf[:, :2] >= stack[0][:2]) & (shelf[:, :2] <= stack[1][:2]), axis=1)
+    tops = shelf[~hidden]
+    assert not _rests_on(tops, *stack, big_lo, big_hi, MIN_TOP, CFG)  # too low for any top
+    assert _rests_on(tops, *stack, big_lo, big_hi, CFG.stored_min_height, CFG)  # a shelf of a case
+    board = _box((0.0, 0.0, 0.45), (0.64, 0.27, 0.45))
+    assert _under_board(board, *stack, CFG)
+    assert not _under_board(board[board[:, 0] > 0.5], *stack, CFG)  # the board ends before the stack
+
+
+def _faces(lo: tuple[float, float, float], hi: tuple[float, float, float], normal: tuple[float, float, float]):
+    """Points [n, 3] on a STEP grid over a flat face (one of lo, hi's axes equal) and their normals [n, 3]."""
+    p = _box(lo, hi)
+    return p, np.tile(np.asarray(normal, float), (len(p), 1))
+
+
+def _surfaces(faces: list[tuple[np.ndarray, np.ndarray]]) -> ScanPoints:
+    """ScanPoints of oriented faces, one superpoint each, coloured alike (geometry alone parts them)."""
+    pts = np.concatenate([f[0] for f in faces])
+    nrm = np.concatenate([f[1] for f in faces])
+    label = np.concatenate([np.full(len(f[0]), i) for i, f in enumerate(faces)])
+    col = np.full((len(pts), 3), 0.5)
+    edges = point_graph(pts, STEP * 1.75)
+    _, concave, step = edge_weights(pts, nrm, col, edges, 1.0)
+    g = superpoint_graph(pts, nrm, col, label, edges, concave, step)
+    return ScanPoints(pts, nrm, col, np.zeros(len(pts), np.int64), np.arange(len(pts)), edges, g)
+
+
+def _bookcase(board_over_stack: bool) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
+    """The seen faces of a bookcase 0.8 m wide, 0.3 m deep (back at y = 0) with a book stack on its lowest
+    shelf (z = 0.07) against the back panel and a row of upright books on the shelf at z = 0.5; with
+    ``board_over_stack`` False the case ends at the shelf under the stack (a sofa's back behind a cushion).
+    Returns the faces and how many of the first belong to the stack."""
+    stack = [
+        _faces((0.2, 0.0, 0.2), (0.4, 0.225, 0.2), (0, 0, 1)),  # its top
+        _faces((0.2, 0.25, 0.075), (0.4, 0.25, 0.175), (0, 1, 0)),  # its front
+        _faces((0.175, 0.0, 0.075), (0.175, 0.225, 0.175), (-1, 0, 0)),  # its sides
+        _faces((0.425, 0.0, 0.075), (0.425, 0.225, 0.175), (1, 0, 0)),
+    ]
+    top = 1.0 if board_over_stack else 0.45
+    back = _faces((0.025, -0.025, 0.1), (0.775, -0.025, top), (0, 1, 0))
+    behind = (back[0][:, 0] > 0.15) & (back[0][:, 0] < 0.45) & (back[0][:, 2] < 0.225)  # hidden by the stack
+    case = [
+        _faces((0.0, -0.025, 0.0), (0.0, 0.3, top), (1, 0, 0)),  # side panels' inner faces
+        _faces((0.8, -0.025, 0.0), (0.8, 0.3, top), (-1, 0, 0)),
+        (back[0][~behind], back[1][~behind]),
+        _faces((0.025, 0.325, 0.0), (0.775, 0.325, 0.05), (0, 1, 0)),  # the plinth's front
+    ]
+    shelf = _faces((0.025, 0.0, 0.075), (0.775, 0.3, 0.075), (0, 0, 1))
+    hidden = (shelf[0][:, 0] > 0.15) & (shelf[0][:, 0] < 0.45) & (shelf[0][:, 1] < 0.25)
+    case.append((shelf[0][~hidden], shelf[1][~hidden]))
+    if board_over_stack:
+        case += [
+            _faces((0.025, 0.0, 0.475), (0.775, 0.3, 0.475), (0, 0, -1)),  # the board's underside ...
+            _faces((0.55, 0.0, 0.5), (0.775, 0.3, 0.5), (0, 0, 1)),  # ... and its top beside the row
+            _faces((0.025, 0.2, 0.525), (0.5, 0.2, 0.75), (0, 1, 0)),  # upright books' spines
+            _faces((0.025, 0.0, 0.775), (0.5, 0.175, 0.775), (0, 0, 1)),  # their tops
+            _faces((0.525, 0.0, 0.525), (0.525, 0.175, 0.75), (1, 0, 0)),
+            _faces((0.025, 0.0, 0.975), (0.775, 0.3, 0.975), (0, 0, -1)),  # the case's top board
+        ]
+    return stack + case, sum(len(f[0]) for f in stack)
+
+
+def test_a_stack_against_a_bookcases_back_is_split_off_a_cushion_with_nothing_over_it_is_not():
+    from rescene_core.segment.geometric import split_bodies_on_tops
+
+    for board_over_stack in (True, False):
+        faces, n_stack = _bookcase(board_over_stack)
+        sp = _surfaces(faces)
+        region = np.ones(sp.graph.size, np.int64)
+        sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+        point_region = region2[sp2.graph.label]
+        stack = np.arange(len(sp.points)) < n_stack
+        above = sp.points[:, 2] > 0.075 + CFG.top_clearance
+        if board_over_stack:
+            assert split == 1  # the stack; the upright books stay with the case
+            assert len(np.unique(point_region[stack & above])) == 1 and (point_region[stack & above] != 1).all()
+            assert (point_region[~stack] == 1).all()
+        else:
+            assert split == 0 and (point_region == 1).all()
