@@ -703,7 +703,7 @@ def split_bodies_on_tops(
     split = 0
     off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
     z = sp.points[:, 2]
-    smooth = ~edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)[1]
+    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
     for r in range(1, int(region.max(initial=0)) + 1):
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
@@ -744,7 +744,7 @@ def split_bodies_on_tops(
             # what the region's frame holds fast above the top, or all above a top too low to carry bodies
             # of their own: a body stored on the shelf of a case
             stuck = above & (np.isin(comp, down) | (h < cfg.support_min_height)) & (point_region == r)
-            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, smooth, cfg):
+            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, ~concave, cfg):
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
@@ -754,7 +754,6 @@ def split_bodies_on_tops(
     uk, label = np.unique(key, return_inverse=True)
     new_region = (uk % nxt).astype(np.int64)
     new_which = which[uk // nxt]
-    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
     graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
     return replace(sp, graph=graph), new_region, new_which, split
 
@@ -794,8 +793,7 @@ def _stored_bodies(
     k, sub = connected_components(adj, directed=False)
     part = np.full(len(stuck), -1, np.int64)
     part[stuck] = sub
-    idx = np.flatnonzero(stuck)
-    p = sp.points[idx]
+    p = sp.points[stuck]
     lo = np.full((k, 3), np.inf)
     hi = np.full((k, 3), -np.inf)
     np.minimum.at(lo, sub, p)
@@ -831,7 +829,7 @@ def _stored_bodies(
                         grown.append(t)
                         blo, bhi = np.minimum(blo, lo[t]), np.maximum(bhi, hi[t])
             frontier = grown
-        blo[2] = min(blo[2], h)  # it stands on the top: its height counts from there
+        blo[2] = h  # it stands on the top: its height counts from there
         if count[body].sum() < cfg.min_segment_points or float(np.min(bhi - blo)) < cfg.body_min_thickness:
             continue
         centre = 0.5 * (blo[:2] + bhi[:2])
@@ -935,11 +933,12 @@ def _rejoin_enclosed(
             if (g.count[mine] * inside).sum() < cfg.enclosed_fraction * pts[small]:
                 continue
             tops = sp.points[up_idx[up_bounds[big] : up_bounds[big + 1]]]
-            board = not by_extent and _under_board(sp.points[point_region == big], lo[small], hi[small], cfg)
-            low = cfg.stored_min_height if board else cfg.support_min_height
-            if not by_extent and _rests_on(tops, lo[small], hi[small], lo[big], hi[big], low, cfg):
-                if not _stored_upright(sp.points[point_region == big], lo[small], hi[small], cfg):
-                    continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
+            if not by_extent:
+                case = sp.points[point_region == big]
+                low = cfg.stored_min_height if _under_board(case, lo[small], hi[small], cfg) else cfg.support_min_height
+                if _rests_on(tops, lo[small], hi[small], lo[big], hi[big], low, cfg):
+                    if not _stored_upright(case, lo[small], hi[small], cfg):
+                        continue  # a book stack on a shelf of its bookcase, a lamp on its nightstand
             remap[small] = big
             joined += 1
             changed = True
@@ -1076,10 +1075,12 @@ def _rests_on(
     return int((under & level).sum()) >= cfg.min_contacts
 
 
-def _under_board(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:
+def _under_board(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig, reach: float = np.inf) -> bool:
     """Whether ``min_contacts`` of a case's points ``case`` [k, 3] lie over the footprint of what stands in
-    it (bounds ``lo``, ``hi`` [3], m), higher than its top: a shelf board over a book stack."""
-    over = np.all((case[:, :2] >= lo[:2]) & (case[:, :2] <= hi[:2]), axis=1) & (case[:, 2] > hi[2])
+    it (bounds ``lo``, ``hi`` [3], m), higher than its top by at most ``reach`` (m): a shelf board over a
+    book stack."""
+    over = np.all((case[:, :2] >= lo[:2]) & (case[:, :2] <= hi[:2]), axis=1)
+    over &= (case[:, 2] > hi[2]) & (case[:, 2] <= hi[2] + reach)
     return int(over.sum()) >= cfg.min_contacts
 
 
@@ -1090,9 +1091,7 @@ def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) 
     ``stored_cover_gap`` above the top). A book stack lies flat; a monitor or a lamp has no board over it."""
     if hi[2] - lo[2] < min(hi[:2] - lo[:2]):
         return False
-    over = np.all((big[:, :2] >= lo[:2]) & (big[:, :2] <= hi[:2]), axis=1)
-    over &= (big[:, 2] > hi[2]) & (big[:, 2] <= hi[2] + cfg.stored_cover_gap)
-    return int(over.sum()) >= cfg.min_contacts
+    return _under_board(big, lo, hi, cfg, cfg.stored_cover_gap)
 
 
 def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:

@@ -45,15 +45,9 @@ def test_a_body_on_a_shelf_rests_on_it_and_a_board_or_a_mattress_does_not():
 
 
 def _scan(parts: list[np.ndarray]) -> tuple[ScanPoints, np.ndarray]:
-    """ScanPoints whose superpoints are the given parts (one each, ids 0..k-1), with region ids 1..k."""
-    pts = np.concatenate(parts)
-    label = np.concatenate([np.full(len(p), i) for i, p in enumerate(parts)])
-    nrm = np.tile([0.0, 0.0, 1.0], (len(pts), 1))
-    col = np.full((len(pts), 3), 0.5)
-    edges = point_graph(pts, STEP * 1.75)
-    _, concave, step = edge_weights(pts, nrm, col, edges, 1.0)
-    g = superpoint_graph(pts, nrm, col, label, edges, concave, step)
-    sp = ScanPoints(pts, nrm, col, np.zeros(len(pts), np.int64), np.arange(len(pts)), edges, g)
+    """ScanPoints whose superpoints are the given parts (one each, ids 0..k-1, normals up), with region ids
+    1..k."""
+    sp = _surfaces([(p, np.tile([0.0, 0.0, 1.0], (len(p), 1))) for p in parts])
     return sp, np.arange(1, len(parts) + 1)
 
 
