@@ -4,7 +4,8 @@
    ``tsdf_stride`` first) and its surface mesh with vertex colours.
 2. Room structure: the floor (z near 0 in the aligned frame), a ceiling (a large horizontal plane above the
    cameras or, seen too little for a plane, the densest slab of downward-facing surface above them) and
-   walls (large vertical planes with almost nothing behind them). A vertex joins a plane only if it lies
+   walls (large vertical planes with almost nothing behind them, their ends trimmed where the room lies
+   behind the plane: the inner walls of an L-shaped room). A vertex joins a plane only if it lies
    on it and its normal agrees, so the side of a cabinet against a wall stays with the cabinet.
 3. Superpoints (``rescene_core.segment.superpoints``): the vertices off the floor and ceiling, thinned to
    ``superpoint_voxel``, are over-segmented by Felzenszwalb-Huttenlocher on normals and colour, as
@@ -13,11 +14,13 @@
    crease (a lamp standing on a nightstand, a chair seat meeting a table's edge), a strong change of
    colour, or a support contact (a body standing on a horizontal top and narrower than it: what spans the
    top is its own back or headboard). Small pieces and thin upright ones (legs) join what they touch most;
-   slender uprights standing under a broader region (fused table legs, a desk's side panels) join it;
+   slender uprights standing under a broader region (fused table legs, a desk's side panels) join it, and
+   so do regions standing against a wall under it (a desk's back legs and rail, fused with the wall);
    regions parted by creases alone join again when one lies within the other's bounds (shelves in a
    bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
-   A region ending just under another, under its footprint, with a slender upper end joins it (a table
-   lamp's base and stem under its shade, parted from it by colour and the crease at the rim).
+   A region ending just under another, its slender upper end under the other's footprint, joins it (a
+   table lamp's base and stem under its shade, parted from it by colour and the crease at the rim, or by
+   a gap where the fusion lost the stem's thin top).
    A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
    a body stored on a shelf of a case, parted from the case's back and sides at its creases, with a board
@@ -156,6 +159,11 @@ class SegmentConfig(BaseModel):
     leg_max_width: float = 0.16
     """An upright region narrower than this one way (m), standing near the floor with its upper end just under
     a broader region, is a leg or a side panel of it (fused legs are fatter than ``leg_width``)."""
+    back_depth: float = 0.1
+    """A region standing near the floor and lying wholly within this distance (m) in front of one wall, ..."""
+    back_reach: float = 0.3
+    """... with a broader region's surface up to this far (m) over its upper end, is that one's back legs or
+    rail, fused with the wall (the fusion may give a leg's upper part to the wall it stands against)."""
     min_segment_points: int = 80
     """Fewest thinned points of an object segment (80 points of 2.5 cm: 0.05 m^2 of surface); smaller
     regions join their most touching neighbour."""
@@ -199,7 +207,14 @@ class SegmentConfig(BaseModel):
     """... on at least this many of the four sides: a monitor, a lamp or a book stack on a desk (one side may
     be the wall or the desk's edge); a back or an armrest along the seat's edge is the piece's own."""
     stem_margin: float = 0.02
-    """A region below another, ending where the other begins and under its footprint within this margin (m), ..."""
+    """A region below another, ending where the other begins (or up to ``stem_gap`` under it), its upper end
+    under the other's footprint within this margin (m), ..."""
+    stem_gap: float = 0.08
+    """... the most (m) a stem's top may end under its shade: the fusion loses a thin stem's top, 1-2 cm
+    across, where it enters the shade ..."""
+    stem_overlap: float = 0.5
+    """... with at least this fraction of its footprint under the other's (a lamp's base may reach past its
+    shade) ..."""
     stem_width_fraction: float = 0.5
     """... whose upper end is narrower than this fraction of the other both ways is its stem (a table lamp's
     base and stem under its shade) and joins it."""
@@ -339,6 +354,23 @@ def _wall_span(along: NDArray, bin_size: float) -> tuple[float, float]:
     return float(edges[best[0]]), float(edges[best[1] + 1])
 
 
+def _trim_overhang(along: NDArray, side: NDArray, lo: float, hi: float, cfg: SegmentConfig) -> tuple[float, float]:
+    """A wall's stretch [lo, hi] (m along it) less the ``wall_bin`` bins at either end in which more than
+    ``wall_max_behind`` of the scene's points (at positions ``along`` [k], signed distances ``side`` [k] from
+    the plane, positive towards the room) lie behind the plane: the inner walls of an L-shaped room, whose
+    plane runs on past the corner across the other arm (coplanar faces of furniture there stretch the span
+    over it). A furniture face with the room behind it all along trims to nothing."""
+    edges = np.arange(lo, hi + cfg.wall_bin, cfg.wall_bin)
+    if len(edges) < 2:
+        return lo, hi
+    total, _ = np.histogram(along, bins=edges)
+    behind, _ = np.histogram(along[side < -2 * cfg.plane_distance], bins=edges)
+    clear = np.flatnonzero(behind <= cfg.wall_max_behind * np.maximum(total, 1))
+    if len(clear) == 0:
+        return lo, lo
+    return float(edges[clear[0]]), min(float(edges[clear[-1] + 1]), hi)
+
+
 def _structure(
     verts: NDArray, normals: NDArray, cams: NDArray, cfg: SegmentConfig
 ) -> tuple[NDArray[np.int64], list[dict[str, Any]]]:
@@ -387,9 +419,16 @@ def _structure(
                 # the room lies on the other side (the cameras' centre can lie outside an L-shaped room's arm)
                 n, d, horiz, side = -n, -d, -horiz, -side
                 lo, hi = -hi, -lo
+            lo, hi = _trim_overhang(thin @ horiz, thin @ n + d, lo, hi, cfg)
+            within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
+            side = thin[within] @ n + d
             behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
             # a face parallel to a wall just in front of it is furniture against the wall (a wardrobe's front)
-            shadow = any(n @ w[0] > 0.98 and 0 < w[1] - d < cfg.wall_shadow for w in walls)
+            # (measured at its own inliers: a plane tilted a degree off the wall it parallels crosses it)
+            shadow = any(
+                n @ w[0] > 0.98 and -cfg.plane_distance < np.median(pts[on_wall] @ w[0] + w[1]) < cfg.wall_shadow
+                for w in walls
+            )
             if (
                 hi - lo >= cfg.wall_min_extent
                 and height >= cfg.wall_min_extent
@@ -649,6 +688,7 @@ def merge_superpoints(
     region, stats["rejoined_flush"] = _rejoin_enclosed(sp, region, hung, np.zeros(n, bool), cfg, by_extent=True)
     region = _absorb_small(g, region, cfg)
     region, stats["legs_attached"] = _attach_legs(sp, region, cfg)
+    region, stats["backs_attached"] = _attach_backs(sp, region, planes, cfg)
     near_structure = _structure_distance(g.centroid, planes) < cfg.structure_band
     region, stats["rejoined_enclosed"] = _rejoin_enclosed(
         sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
@@ -970,35 +1010,45 @@ def _touching_regions(
 
 
 def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
-    """A region below another that it touches, lying under that one's footprint (within ``stem_margin``), its
-    top within ``support_band`` of the other's lowest point and its upper end (the points within
-    ``support_band`` of its top) narrower than ``stem_width_fraction`` of the other both ways, joins it: a
-    table lamp's base and stem under its shade, parted from it by the shade's colour and the crease at the
-    rim. A book stack under another has a top as broad as itself and stays apart. ``region`` [s] (0: none);
-    returns the regions and how many joined."""
+    """A region below another, its top between ``support_band`` above the other's lowest point and
+    ``stem_gap`` under it, joins that one when its upper end (the points within ``support_band`` of its top)
+    lies under the other's footprint (within ``stem_margin``) and is narrower than ``stem_width_fraction`` of
+    the other both ways, and at least ``stem_overlap`` of its own footprint lies under the other's: a table
+    lamp's base and stem under its shade, parted from it by the shade's colour and the crease at the rim, or
+    by a gap where the fusion lost the stem's thin top (an angled arm, a base broader than the shade). A book
+    stack under another has a top as broad as itself and stays apart. ``region`` [s] (0: none); returns the
+    regions and how many joined."""
     g = sp.graph
-    region = region.copy()
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
     point_region = region[g.label]
+    gap = lo[None, :, 2] - hi[:, None, 2]  # [low, top]: from the low one's top up to the other's lowest point
+    under = (gap >= -cfg.support_band) & (gap <= cfg.stem_gap) & (lo[:, None, 2] < lo[None, :, 2])
+    under[0, :] = under[:, 0] = False
+    lows, tops = np.nonzero(under)
+    cover = np.clip(np.minimum(hi[lows, :2], hi[tops, :2] + cfg.stem_margin)
+                    - np.maximum(lo[lows, :2], lo[tops, :2] - cfg.stem_margin), 0.0, None).prod(axis=1)  # fmt: skip
+    area = np.maximum(np.prod(hi[lows, :2] - lo[lows, :2], axis=1), 1e-6)
+    keep = cover >= cfg.stem_overlap * area
+    lows, tops = lows[keep], tops[keep]
+    order = np.argsort(np.abs(gap[lows, tops]), kind="stable")  # the nearest one over it first
+    by_region = np.argsort(point_region, kind="stable")
+    start = np.searchsorted(point_region[by_region], np.arange(n + 1))
     remap = np.arange(n)
     joined = 0
-    for a, b in _touching_regions(g, region, n, cfg.min_contacts):
-        for low, top in ((a, b), (b, a)):
-            if remap[low] != low or remap[top] != top:
-                continue
-            if abs(hi[low, 2] - lo[top, 2]) > cfg.support_band or lo[low, 2] >= lo[top, 2]:
-                continue  # it does not end where the other begins, below it
-            if np.any(lo[low, :2] < lo[top, :2] - cfg.stem_margin) or np.any(
-                hi[low, :2] > hi[top, :2] + cfg.stem_margin
-            ):
-                continue  # it reaches out from under the other's footprint
-            p = sp.points[point_region == low]
-            end = p[p[:, 2] >= hi[low, 2] - cfg.support_band, :2]
-            if np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2])):
-                continue  # a broad top: a body under the other (a book stack under another), not a stem
-            remap[low] = top
-            joined += 1
+    for low, top in zip(lows[order].tolist(), tops[order].tolist(), strict=True):
+        if remap[low] != low or remap[top] != top:
+            continue
+        p = sp.points[by_region[start[low] : start[low + 1]]]
+        end = p[p[:, 2] >= hi[low, 2] - cfg.support_band, :2]
+        if np.any(end.min(axis=0) < lo[top, :2] - cfg.stem_margin) or np.any(
+            end.max(axis=0) > hi[top, :2] + cfg.stem_margin
+        ):
+            continue  # its upper end reaches out from under the other (a floor lamp's arm beside a shelf)
+        if np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2])):
+            continue  # a broad top: a body under the other (a book stack under another), not a stem
+        remap[low] = top
+        joined += 1
     return remap[region], joined
 
 
@@ -1132,6 +1182,58 @@ def _attach_legs(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) 
             remap[r] = top
             joined += 1
     # a leg joins a top that may itself have joined another: follow the chain
+    for _ in range(3):
+        remap = remap[remap]
+    return remap[region], joined
+
+
+def _attach_backs(
+    sp: ScanPoints, region: NDArray[np.int64], planes: list[dict[str, Any]], cfg: SegmentConfig
+) -> tuple[NDArray[np.int64], int]:
+    """Regions standing near the floor and lying wholly within ``back_depth`` in front of one wall, with a
+    broader region's surface over them (``min_contacts`` points or more above their footprint, grown by
+    ``support_band``, from ``support_band`` under their upper end to ``back_reach`` over it), join the region
+    that holds at least ``stem_overlap`` of their footprint and rises past their upper end: a desk's back legs
+    and back rail, fused with the wall they stand against, whose upper part the fusion gave to the wall (so
+    that the leg ends short of the top) and whose smear along the wall reaches past the desk's end. Whatever
+    stands against the wall under a desk deeper than ``back_depth`` (a bin, a drawer unit) stays apart.
+    Returns the regions and how many joined."""
+    g = sp.graph
+    walls = [(np.asarray(q["normal"], float), float(q["offset"])) for q in planes if q["kind"] == "wall"]
+    n = int(region.max(initial=0)) + 1
+    if not walls or n <= 1:
+        return region, 0
+    point_region = region[g.label]
+    lo, hi = _region_bounds(g, region, n)
+    by_region = np.argsort(point_region, kind="stable")
+    start = np.searchsorted(point_region[by_region], np.arange(n + 1))
+    # the depth of each region in front of each wall: the larger of its 95th-percentile distance either side
+    depth = np.full(n, np.inf)
+    for normal, offset in walls:
+        d = np.abs(sp.points @ normal + offset)
+        srt = np.argsort(point_region * 1.0 + np.minimum(d, 0.999), kind="stable")  # by region, then distance
+        count = np.diff(start)
+        k95 = start[:-1] + np.maximum(np.ceil(0.95 * count).astype(np.int64) - 1, 0)
+        has = count > 0
+        depth[has] = np.minimum(depth[has], d[srt[k95[has]]])
+    back = (depth <= cfg.back_depth) & (lo[:, 2] <= cfg.support_min_height) & (np.arange(n) > 0)
+    remap = np.arange(n)
+    joined = 0
+    band = cfg.support_band
+    for r in np.flatnonzero(back).tolist():
+        over = np.all((sp.points[:, :2] >= lo[r, :2] - band) & (sp.points[:, :2] <= hi[r, :2] + band), axis=1)
+        over &= (sp.points[:, 2] >= hi[r, 2] - band) & (sp.points[:, 2] <= hi[r, 2] + cfg.back_reach)
+        owners = point_region[over]
+        owners = owners[(owners > 0) & (owners != r) & ~back[owners]]
+        if len(owners) < cfg.min_contacts:
+            continue
+        top = int(np.bincount(owners).argmax())
+        if np.bincount(owners)[top] < cfg.min_contacts or hi[top, 2] <= hi[r, 2]:
+            continue
+        cover = np.clip(np.minimum(hi[r, :2], hi[top, :2] + band) - np.maximum(lo[r, :2], lo[top, :2] - band), 0, None)
+        if cover.prod() >= cfg.stem_overlap * np.prod(np.maximum(hi[r, :2] - lo[r, :2], 1e-3)):
+            remap[r] = top
+            joined += 1
     for _ in range(3):
         remap = remap[remap]
     return remap[region], joined

@@ -189,3 +189,42 @@ def test_a_shadow_on_a_wall_is_no_flush_object():
     flush = flush_of_vertex(SegmentConfig())
     assert flush[shadow].mean() < 0.1 and flush[picture].mean() > 0.9
     assert flush_of_vertex(SegmentConfig(flush_shadow_tint=0.0))[shadow].mean() > 0.9
+
+
+def _wall(a: tuple[float, float], b: tuple[float, float], height: float = 2.6) -> tuple[np.ndarray, np.ndarray]:
+    """An upright wall (5 cm grid) from floor point a to b (m), its normal to the left of a -> b."""
+    a_, b_ = np.asarray(a, float), np.asarray(b, float)
+    run = b_ - a_
+    s, z = np.meshgrid(np.arange(0.0, np.linalg.norm(run), 0.05), np.arange(0.0, height, 0.05))
+    xy = a_ + np.outer(s.ravel(), run / np.linalg.norm(run))
+    normal = np.array([-run[1], run[0], 0.0]) / np.linalg.norm(run)
+    return np.c_[xy, z.ravel()], np.tile(normal, (len(xy), 1))
+
+
+def test_the_inner_walls_of_an_l_shaped_room_are_walls_a_face_on_a_wall_is_not():
+    # a 5 x 2.5 m room with a 3 x 1.5 m wing (x < 3, 2.5 < y < 4); walls run anticlockwise, normals inwards
+    corners = [(0.0, 0.0), (5.0, 0.0), (5.0, 2.5), (3.0, 2.5), (3.0, 4.0), (0.0, 4.0), (0.0, 0.0)]
+    parts = [_wall(a, b) for a, b in zip(corners[:-1], corners[1:], strict=True)]
+    gx, gy = np.meshgrid(np.arange(0.0, 5.0, 0.05), np.arange(0.0, 4.0, 0.05))
+    floor = np.c_[gx.ravel(), gy.ravel(), np.zeros(gx.size)][(gx.ravel() < 3.0) | (gy.ravel() < 2.5)]
+    parts.append((floor, np.tile([0.0, 0.0, 1.0], (len(floor), 1))))
+    # a wardrobe's side in the wing, in line with the inner wall y = 2.5: its plane's span runs past the corner
+    parts.append(_wall((2.9, 2.5), (2.3, 2.5), 2.0))
+    # a bookcase's side 1.7 degrees off the wall x = 0 (2 to 7 cm in front of it; its plane meets the wall's
+    # far beyond its end), hiding the wall behind it: no wall of its own
+    side = _wall((0.0, 2.7), (0.0, 1.1), 2.0)
+    side[0][:, 0] += 0.03 * side[0][:, 1] - 0.01
+    left = parts[5][0]
+    hidden = (left[:, 1] > 1.1) & (left[:, 1] < 2.7) & (left[:, 2] < 2.0)
+    parts[5] = (left[~hidden], parts[5][1][~hidden])
+    parts.append(side)
+    verts, normals = np.concatenate([p for p, _ in parts]), np.concatenate([n for _, n in parts])
+    cams = np.array([[2.5, 1.2, 1.5], [1.5, 2.0, 1.5], [1.5, 3.2, 1.5]])
+    labels, planes = _structure(verts, normals, cams, SegmentConfig())
+    walls = [p for p in planes if p["kind"] == "wall"]
+    assert len(walls) == 6
+    inner = next(w for w in walls if abs(abs(w["normal"][1]) - 1) < 0.01 and abs(abs(w["offset"]) - 2.5) < 0.05)
+    span = sorted(abs(v) for v in inner["span"])
+    assert span[0] >= 2.95  # trimmed at the corner: the wardrobe's side is not wall
+    wardrobe = slice(-len(side[0]) - len(parts[-2][0]), -len(side[0]))
+    assert (labels[wardrobe] == 0).mean() > 0.9

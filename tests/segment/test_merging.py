@@ -64,6 +64,25 @@ def test_fused_legs_under_a_table_top_join_it_and_a_chair_beside_it_does_not():
     assert out[5] != out[0] and out[6] != out[0]
 
 
+def test_a_desks_back_rail_fused_with_its_wall_joins_the_desk_a_bin_under_it_does_not():
+    from rescene_core.segment.geometric import _attach_backs
+
+    planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]
+    # a desk against the wall y = 0: its top 1.2 by 0.6 m at 0.75 m, front legs, and its back rail and leg
+    # fused with the wall behind them (5 cm deep, reaching 10 cm past the desk's end along the wall) whose
+    # upper part went to the wall: the rail ends 20 cm under the top
+    top = _box((0.0, 0.0, 0.72), (1.2, 0.6, 0.75))
+    front = _box((0.0, 0.55, 0.04), (1.2, 0.6, 0.69))
+    rail = _box((-0.1, 0.0, 0.04), (1.2, 0.05, 0.52))
+    bin_ = _box((0.4, 0.0, 0.04), (0.7, 0.25, 0.4))  # a bin against the wall under the desk, 25 cm deep
+    panel = _box((1.6, 0.0, 0.04), (2.2, 0.03, 1.0))  # a radiator beside the desk: nothing over it
+    sp, region = _scan([top, front, rail, bin_, panel])
+    out, joined = _attach_backs(sp, region, planes, CFG)
+    assert joined == 1
+    assert out[2] == out[0] != out[3] and out[4] not in (out[0], out[3])
+    assert _attach_backs(sp, region, planes[:1], CFG)[1] == 0  # no wall found: nothing is a back
+
+
 def test_a_hanging_region_faces_the_room_as_its_wall_does():
     planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0}]
     face = _box((0.03, 1.0, 1.8), (0.03, 1.3, 2.1))  # a clock's face 3 cm proud of the wall x = 0
@@ -184,6 +203,22 @@ def test_a_lamps_stem_under_its_shade_joins_it_a_stack_under_a_stack_or_its_nigh
     assert out[3] != out[4]  # the lower stack's top is as broad as the stack above: a body, not a stem
     # a stem reaching out from under its shade (a floor lamp's arm beside a shelf) stays apart
     sp, region = _scan([base + [0.3, 0.0, 0.0], shade])
+    assert _join_stems(sp, region, CFG)[1] == 0
+
+
+def test_a_lamps_stem_whose_top_the_fusion_lost_joins_its_shade_a_stem_far_under_it_does_not():
+    shade = _box((0.35, 0.35, 0.85), (0.65, 0.65, 1.0))
+    # a base broader than the shade on one side (8 cm past it), its stem ending 6 cm under the shade
+    base = np.concatenate([_box((0.4, 0.4, 0.5), (0.73, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.79))])
+    sp, region = _scan([base, shade])
+    out, joined = _join_stems(sp, region, CFG)
+    assert joined == 1 and out[0] == out[1]
+    # the same stem ending 15 cm under the shade: two things, one over the other
+    sp, region = _scan([base, shade + [0.0, 0.0, 0.09]])
+    assert _join_stems(sp, region, CFG)[1] == 0
+    # a base mostly beyond the shade's footprint stays apart even when its stem ends under the shade
+    wide = np.concatenate([_box((0.45, 0.4, 0.5), (1.2, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.83))])
+    sp, region = _scan([wide, shade])
     assert _join_stems(sp, region, CFG)[1] == 0
 
 
