@@ -15,13 +15,14 @@
    colour, or a support contact (a body standing on a horizontal top and narrower than it: what spans the
    top is its own back or headboard). Small pieces and thin upright ones (legs) join what they touch most;
    slender uprights standing under a broader region (fused table legs, a desk's side panels) join it, and
-   so do regions standing against a wall under it (a desk's back legs and rail, fused with the wall);
+   so do regions standing against a wall under it (a desk's back legs and rail, fused with the wall) or
+   rising against the wall over a region they touch (a bed's headboard);
    regions parted by creases alone join again when one lies within the other's bounds (shelves in a
    bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
    A region ending just under another, its slender upper end under the other's footprint, joins it (a
    table lamp's base and stem under its shade, parted from it by colour and the crease at the rim, or by
    a gap where the fusion lost the stem's thin top).
-   A compact body standing on a horizontal top of its own region, the top reaching beyond it on three
+   A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
    a body stored on a shelf of a case, parted from the case's back and sides at its creases, with a board
    of the case over it (a book stack against a bookcase's back panel).
@@ -201,8 +202,11 @@ class SegmentConfig(BaseModel):
     """A shelf of a case at least this high, with a board of the case over what stands on it, can carry a
     body of its own (a bookcase's lowest shelf is 5-10 cm above the floor; without a board over it, a top
     lower than ``support_min_height`` carries none) (m)."""
+    foot_height: float = 0.08
+    """The foot of a body standing on a top: its points within this height (m) of its lowest point (a
+    lamp's base, not the shade overhanging it)."""
     top_margin: float = 0.05
-    """A top reaches beyond a body's footprint on a side when it extends this far past it there (m)..."""
+    """A top reaches beyond a body's foot on a side when it extends this far past it there (m)..."""
     top_sides: int = 3
     """... on at least this many of the four sides: a monitor, a lamp or a book stack on a desk (one side may
     be the wall or the desk's edge); a back or an armrest along the seat's edge is the piece's own."""
@@ -776,7 +780,8 @@ def split_bodies_on_tops(
                 centre = p[:, :2].mean(axis=0)
                 if lo[2] > h + cfg.support_band or np.any(centre < tlo) or np.any(centre > thi):
                     continue  # it does not stand on the top (a shelf board over it, a part beside it)
-                if not _held_by_top(lo, hi, sp.points[slab, :2], cfg):
+                foot = p[p[:, 2] <= lo[2] + cfg.foot_height]
+                if not _held_by_top(lo, hi, sp.points[slab, :2], cfg, foot.min(axis=0), foot.max(axis=0)):
                     continue  # a chair's back, a headboard, a hutch: the piece's own
                 point_region[body] = nxt
                 nxt += 1
@@ -898,10 +903,19 @@ def _sides_beyond(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) ->
     ]) >= cfg.min_contacts  # fmt: skip
 
 
-def _held_by_top(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> bool:
+def _held_by_top(
+    lo: NDArray,
+    hi: NDArray,
+    top: NDArray,
+    cfg: SegmentConfig,
+    foot_lo: NDArray | None = None,
+    foot_hi: NDArray | None = None,
+) -> bool:
     """Whether a part above a top, with bounds ``lo``, ``hi`` [3] (m), stands on it as a body of its own
     rather than being the piece's own back: the top's upward-facing points ``top`` [k, 2] (x, y) reach
-    ``top_margin`` beyond its footprint on ``top_sides`` of its four sides (``_sides_beyond``), and it is
+    ``top_margin`` beyond its foot (the bounds ``foot_lo``, ``foot_hi`` [>= 2] of what it stands on, by
+    default its own: a lamp's shade overhangs its base, and a small nightstand's top reaches past the base
+    but not the shade) on ``top_sides`` of its four sides (``_sides_beyond``), and it is
     narrower than ``support_span_fraction`` of the top both ways (a chair's back, a headboard, a hutch spans
     its seat, bed or desk one way and stands at its edge). A body spanning a narrow top one way only is its
     own when the top reaches beyond it on both sides the other way and it is ``body_min_thickness`` thick
@@ -910,7 +924,7 @@ def _held_by_top(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> 
     spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (top.max(axis=0) - top.min(axis=0))
     if spans.all():
         return False
-    sides = _sides_beyond(lo, hi, top, cfg)
+    sides = _sides_beyond(lo if foot_lo is None else foot_lo, hi if foot_hi is None else foot_hi, top, cfg)
     if not spans.any():
         return int(sides.sum()) >= cfg.top_sides
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
@@ -1193,11 +1207,15 @@ def _attach_backs(
     """Regions standing near the floor and lying wholly within ``back_depth`` in front of one wall, with a
     broader region's surface over them (``min_contacts`` points or more above their footprint, grown by
     ``support_band``, from ``support_band`` under their upper end to ``back_reach`` over it), join the region
-    that holds at least ``stem_overlap`` of their footprint and rises past their upper end: a desk's back legs
-    and back rail, fused with the wall they stand against, whose upper part the fusion gave to the wall (so
-    that the leg ends short of the top) and whose smear along the wall reaches past the desk's end. Whatever
-    stands against the wall under a desk deeper than ``back_depth`` (a bin, a drawer unit) stays apart.
-    Returns the regions and how many joined."""
+    that holds at least ``stem_overlap`` of their stretch along the wall and rises past their upper end: a
+    desk's back legs and back rail, fused with the wall they stand against, whose upper part the fusion gave
+    to the wall (so that the leg ends short of the top) and whose smear along the wall reaches past the
+    desk's end. Whatever stands against the wall under a desk deeper than ``back_depth`` (a bin, a drawer
+    unit) stays apart.
+    A region within ``back_depth`` of a wall reaching from under the top of a region it touches
+    (``min_contacts`` graph contacts) to over it, that region holding that share of its stretch, joins it: a
+    bed's headboard, its lower part hidden behind the bed, upright as a monitor on a desk and parted from the
+    bedding by colour and the crease where the mattress meets it. Returns the regions and how many joined."""
     g = sp.graph
     walls = [(np.asarray(q["normal"], float), float(q["offset"])) for q in planes if q["kind"] == "wall"]
     n = int(region.max(initial=0)) + 1
@@ -1209,14 +1227,28 @@ def _attach_backs(
     start = np.searchsorted(point_region[by_region], np.arange(n + 1))
     # the depth of each region in front of each wall: the larger of its 95th-percentile distance either side
     depth = np.full(n, np.inf)
-    for normal, offset in walls:
+    wall_of = np.zeros(n, np.int64)
+    count = np.diff(start)
+    k95 = start[:-1] + np.maximum(np.ceil(0.95 * count).astype(np.int64) - 1, 0)
+    has = count > 0
+    for i, (normal, offset) in enumerate(walls):
         d = np.abs(sp.points @ normal + offset)
         srt = np.argsort(point_region * 1.0 + np.minimum(d, 0.999), kind="stable")  # by region, then distance
-        count = np.diff(start)
-        k95 = start[:-1] + np.maximum(np.ceil(0.95 * count).astype(np.int64) - 1, 0)
-        has = count > 0
-        depth[has] = np.minimum(depth[has], d[srt[k95[has]]])
-    back = (depth <= cfg.back_depth) & (lo[:, 2] <= cfg.support_min_height) & (np.arange(n) > 0)
+        nearer = has & (d[srt[k95]] < depth)
+        depth[nearer] = d[srt[k95[nearer]]]
+        wall_of[nearer] = i
+    against = (depth <= cfg.back_depth) & (np.arange(n) > 0)
+    back = against & (lo[:, 2] <= cfg.support_min_height)
+
+    def along_share(r: int, other: int) -> float:
+        """Share of back r's stretch along its wall that lies within the other's (grown by ``support_band``)."""
+        normal = walls[wall_of[r]][0]
+        horiz = np.array([-normal[1], normal[0], 0.0])
+        a = sp.points[by_region[start[r] : start[r + 1]]] @ horiz
+        b = sp.points[by_region[start[other] : start[other + 1]]] @ horiz
+        cover = min(a.max(), b.max() + cfg.support_band) - max(a.min(), b.min() - cfg.support_band)
+        return max(cover, 0.0) / max(float(np.ptp(a)), 1e-3)
+
     remap = np.arange(n)
     joined = 0
     band = cfg.support_band
@@ -1230,10 +1262,20 @@ def _attach_backs(
         top = int(np.bincount(owners).argmax())
         if np.bincount(owners)[top] < cfg.min_contacts or hi[top, 2] <= hi[r, 2]:
             continue
-        cover = np.clip(np.minimum(hi[r, :2], hi[top, :2] + band) - np.maximum(lo[r, :2], lo[top, :2] - band), 0, None)
-        if cover.prod() >= cfg.stem_overlap * np.prod(np.maximum(hi[r, :2] - lo[r, :2], 1e-3)):
+        if along_share(r, top) >= cfg.stem_overlap:
             remap[r] = top
             joined += 1
+    # a region against the wall reaching from below the top of a region it touches to over it, that region
+    # holding its stretch: a bed's headboard (its lower part hidden behind the bed)
+    for a, b in _touching_regions(g, region, n, cfg.min_contacts, among=against):
+        for r, nb in ((a, b), (b, a)):
+            if not against[r] or against[nb] or remap[r] != r:
+                continue
+            if lo[r, 2] >= hi[nb, 2] - band or hi[r, 2] <= hi[nb, 2] + band:
+                continue
+            if along_share(r, nb) >= cfg.stem_overlap:
+                remap[r] = nb
+                joined += 1
     for _ in range(3):
         remap = remap[remap]
     return remap[region], joined

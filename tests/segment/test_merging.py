@@ -83,6 +83,20 @@ def test_a_desks_back_rail_fused_with_its_wall_joins_the_desk_a_bin_under_it_doe
     assert _attach_backs(sp, region, planes[:1], CFG)[1] == 0  # no wall found: nothing is a back
 
 
+def test_a_headboard_against_the_wall_joins_its_bed_a_nightstand_beside_it_does_not():
+    from rescene_core.segment.geometric import _attach_backs
+
+    planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]
+    headboard = _box((0.0, 0.0, 0.35), (1.6, 0.075, 1.1))  # 7.5 cm thick against the wall y = 0, seen over 35 cm
+    bed = _box((0.0, 0.1, 0.0), (1.6, 2.1, 0.55))  # its mattress and frame, parted at the crease
+    nightstand = _box((1.65, 0.0, 0.0), (2.1, 0.4, 0.55))
+    mirror = _box((2.2, 0.0, 0.0), (2.8, 0.05, 1.6))  # a floor mirror beside the nightstand, touching it
+    sp, region = _scan([headboard, bed, nightstand, mirror])
+    out, joined = _attach_backs(sp, region, planes, CFG)
+    assert joined == 1 and out[0] == out[1]
+    assert len({out[1], out[2], out[3]}) == 3
+
+
 def test_a_hanging_region_faces_the_room_as_its_wall_does():
     planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0}]
     face = _box((0.03, 1.0, 1.8), (0.03, 1.3, 2.1))  # a clock's face 3 cm proud of the wall x = 0
@@ -144,6 +158,26 @@ def test_a_monitor_on_a_desk_is_split_off_at_the_top_and_the_desks_own_back_is_n
     assert split == 1 and len(which2) == sp2.graph.size
     assert len(np.unique(point_region[monitor])) == 1 and (point_region[monitor] != 1).all()
     assert (point_region[~monitor] == 1).all()  # the top, the legs, the back board and the corner box
+
+
+def test_a_lamp_whose_shade_overhangs_a_small_nightstand_is_split_off_at_its_foot():
+    from rescene_core.segment.geometric import split_bodies_on_tops
+
+    # a nightstand 44 by 34 cm, its top at 0.56 m; a lamp's base disc (16 cm) and stem in its middle, the
+    # shade (30 cm) reaching to within 2-4 cm of the top's edges; no crease or colour step parts the base
+    top = _box((0.0, 0.0, 0.56), (0.45, 0.35, 0.56))
+    body = _box((0.0, 0.0, 0.05), (0.45, 0.35, 0.535))
+    base = _box((0.15, 0.1, 0.585), (0.3, 0.25, 0.6))
+    stem = _box((0.225, 0.175, 0.625), (0.225, 0.175, 0.8))
+    shade = _box((0.075, 0.025, 0.825), (0.375, 0.325, 1.0))
+    lamp = len(base) + len(stem) + len(shade)
+    sp, _ = _scan([top, body, base, stem, shade])
+    region = np.ones(sp.graph.size, np.int64)
+    sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+    point_region = region2[sp2.graph.label]
+    assert split == 1
+    assert (point_region[-lamp:] == point_region[-1]).all() and point_region[-1] != 1
+    assert (point_region[:-lamp] == 1).all()
 
 
 def test_a_stack_as_deep_as_its_shelf_is_held_by_it_a_back_or_a_divider_is_not():
