@@ -697,7 +697,7 @@ def merge_superpoints(
     region, stats["rejoined_enclosed"] = _rejoin_enclosed(
         sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
     )
-    region, stats["stems_joined"] = _join_stems(sp, region, cfg)
+    region, stats["stems_joined"] = _join_stems(sp, region, cfg, planes)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
@@ -1023,15 +1023,18 @@ def _touching_regions(
     return [(k // n, k % n) for k in uk[contacts >= min_contacts].tolist()]
 
 
-def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
+def _join_stems(
+    sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig, planes: list[dict[str, Any]]
+) -> tuple[NDArray[np.int64], int]:
     """A region below another, its top between ``support_band`` above the other's lowest point and
     ``stem_gap`` under it, joins that one when its upper end (the points within ``support_band`` of its top)
     lies under the other's footprint (within ``stem_margin``) and is narrower than ``stem_width_fraction`` of
     the other both ways, and at least ``stem_overlap`` of its own footprint lies under the other's: a table
     lamp's base and stem under its shade, parted from it by the shade's colour and the crease at the rim, or
     by a gap where the fusion lost the stem's thin top (an angled arm, a base broader than the shade). A book
-    stack under another has a top as broad as itself and stays apart. ``region`` [s] (0: none); returns the
-    regions and how many joined."""
+    stack under another has a top as broad as itself and stays apart; a region that hangs (``_hangs``) joins
+    however broad its upper end: a wall shelf's bracket, parted from the board by its colour. ``region`` [s]
+    (0: none); returns the regions and how many joined."""
     g = sp.graph
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
@@ -1059,11 +1062,41 @@ def _join_stems(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -
             end.max(axis=0) > hi[top, :2] + cfg.stem_margin
         ):
             continue  # its upper end reaches out from under the other (a floor lamp's arm beside a shelf)
-        if np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2])):
+        broad = np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2]))
+        if broad and not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg):
             continue  # a broad top: a body under the other (a book stack under another), not a stem
         remap[low] = top
         joined += 1
     return remap[region], joined
+
+
+def _hangs(
+    sp: ScanPoints,
+    point_region: NDArray[np.int64],
+    r: int,
+    lo: NDArray,
+    hi: NDArray,
+    planes: list[dict[str, Any]],
+    cfg: SegmentConfig,
+) -> bool:
+    """Whether region r (bounds ``lo``, ``hi`` [3], m) hangs on a wall: clear of the floor (its lowest point
+    above ``support_min_height``), fixed to a wall (``min_contacts`` of its points within ``structure_band``
+    of a wall plane, most of them off it) and with nothing of another region under it (fewer than
+    ``min_contacts`` points within its footprint from 2 ``support_band`` under its lowest point up to it). A
+    wall shelf's bracket under the shelf's board hangs from it; a book stack under another stands on its
+    shelf, and a lamp's shade stands on its stem."""
+    mine = point_region == r
+    if lo[2] <= cfg.support_min_height or (sp.wall[mine] > 0).mean() >= 0.5:
+        return False
+    walls = [q for q in planes if q["kind"] == "wall"]
+    own = sp.points[mine]
+    near = [np.abs(own @ np.asarray(q["normal"]) + q["offset"]) < cfg.structure_band for q in walls]
+    if not walls or int(np.any(near, axis=0).sum()) < cfg.min_contacts:
+        return False
+    p = sp.points
+    under = np.all((p[:, :2] >= lo[:2]) & (p[:, :2] <= hi[:2]), axis=1)
+    under &= (p[:, 2] >= lo[2] - 2 * cfg.support_band) & (p[:, 2] < lo[2]) & (point_region > 0) & ~mine
+    return int(under.sum()) < cfg.min_contacts
 
 
 def _bedding_top(tops: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:
@@ -1213,8 +1246,9 @@ def _attach_backs(
     desk's end. Whatever stands against the wall under a desk deeper than ``back_depth`` (a bin, a drawer
     unit) stays apart.
     A region within ``back_depth`` of a wall reaching from under the top of a region it touches
-    (``min_contacts`` graph contacts) to over it, that region holding that share of its stretch, joins it: a
-    bed's headboard, its lower part hidden behind the bed, upright as a monitor on a desk and parted from the
+    (``min_contacts`` graph contacts) to over it, that region holding that share of its stretch and it
+    spanning ``support_span_fraction`` of that region's, joins it (a mirror standing behind a desk is
+    narrower than the desk): a bed's headboard, its lower part hidden behind the bed, upright as a monitor on a desk and parted from the
     bedding by colour and the crease where the mattress meets it. Returns the regions and how many joined."""
     g = sp.graph
     walls = [(np.asarray(q["normal"], float), float(q["offset"])) for q in planes if q["kind"] == "wall"]
@@ -1240,9 +1274,9 @@ def _attach_backs(
     against = (depth <= cfg.back_depth) & (np.arange(n) > 0)
     back = against & (lo[:, 2] <= cfg.support_min_height)
 
-    def along_share(r: int, other: int) -> float:
-        """Share of back r's stretch along its wall that lies within the other's (grown by ``support_band``)."""
-        normal = walls[wall_of[r]][0]
+    def along_share(r: int, other: int, wall: int) -> float:
+        """Share of region r's stretch along a wall that lies within the other's (grown by ``support_band``)."""
+        normal = walls[wall][0]
         horiz = np.array([-normal[1], normal[0], 0.0])
         a = sp.points[by_region[start[r] : start[r + 1]]] @ horiz
         b = sp.points[by_region[start[other] : start[other + 1]]] @ horiz
@@ -1262,7 +1296,7 @@ def _attach_backs(
         top = int(np.bincount(owners).argmax())
         if np.bincount(owners)[top] < cfg.min_contacts or hi[top, 2] <= hi[r, 2]:
             continue
-        if along_share(r, top) >= cfg.stem_overlap:
+        if along_share(r, top, wall_of[r]) >= cfg.stem_overlap:
             remap[r] = top
             joined += 1
     # a region against the wall reaching from below the top of a region it touches to over it, that region
@@ -1273,7 +1307,9 @@ def _attach_backs(
                 continue
             if lo[r, 2] >= hi[nb, 2] - band or hi[r, 2] <= hi[nb, 2] + band:
                 continue
-            if along_share(r, nb) >= cfg.stem_overlap:
+            # and spans it (a mirror standing behind a desk, narrower than the desk, is no part of it)
+            w = wall_of[r]
+            if along_share(r, nb, w) >= cfg.stem_overlap and along_share(nb, r, w) >= cfg.support_span_fraction:
                 remap[r] = nb
                 joined += 1
     for _ in range(3):

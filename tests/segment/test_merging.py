@@ -20,6 +20,7 @@ from rescene_core.segment.superpoints import edge_weights, point_graph, superpoi
 STEP = 0.025
 CFG = SegmentConfig()
 MIN_TOP = CFG.support_min_height  # the least height of a top that carries bodies of its own
+WALL = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]  # y = 0
 
 
 def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> np.ndarray:
@@ -83,7 +84,7 @@ def test_a_desks_back_rail_fused_with_its_wall_joins_the_desk_a_bin_under_it_doe
     assert _attach_backs(sp, region, planes[:1], CFG)[1] == 0  # no wall found: nothing is a back
 
 
-def test_a_headboard_against_the_wall_joins_its_bed_a_nightstand_beside_it_does_not():
+def test_a_headboard_against_the_wall_joins_its_bed_a_mirror_beside_it_or_behind_a_desk_does_not():
     from rescene_core.segment.geometric import _attach_backs
 
     planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]
@@ -95,6 +96,11 @@ def test_a_headboard_against_the_wall_joins_its_bed_a_nightstand_beside_it_does_
     out, joined = _attach_backs(sp, region, planes, CFG)
     assert joined == 1 and out[0] == out[1]
     assert len({out[1], out[2], out[3]}) == 3
+    # a mirror standing against the wall behind a desk, from under its top to over it, is narrower than it
+    desk = _box((3.0, 0.1, 0.0), (4.2, 0.7, 0.75))
+    tall = _box((3.3, 0.0, 0.3), (3.9, 0.05, 1.6))
+    sp, region = _scan([desk, tall])
+    assert _attach_backs(sp, region, planes, CFG)[1] == 0
 
 
 def test_a_hanging_region_faces_the_room_as_its_wall_does():
@@ -230,14 +236,29 @@ def test_a_lamps_stem_under_its_shade_joins_it_a_stack_under_a_stack_or_its_nigh
     shade = _box((0.35, 0.35, 0.775), (0.65, 0.65, 0.95))  # parted from the stem by its colour and rim
     lower = _box((1.5, 0.3, 0.5), (1.75, 0.55, 0.6))  # two book stacks, one on the other, as wide
     upper = _box((1.5, 0.3, 0.625), (1.75, 0.55, 0.7))
-    sp, region = _scan([nightstand, base, shade, lower, upper])
-    out, joined = _join_stems(sp, region, CFG)
+    table = _box((1.3, 0.1, 0.0), (2.0, 0.8, 0.475))  # what the stacks stand on
+    sp, region = _scan([nightstand, base, shade, lower, upper, table])
+    out, joined = _join_stems(sp, region, CFG, WALL)
     assert joined == 1
     assert out[1] == out[2] != out[0]  # the stem with its shade, the nightstand it stands on apart
     assert out[3] != out[4]  # the lower stack's top is as broad as the stack above: a body, not a stem
     # a stem reaching out from under its shade (a floor lamp's arm beside a shelf) stays apart
     sp, region = _scan([base + [0.3, 0.0, 0.0], shade])
-    assert _join_stems(sp, region, CFG)[1] == 0
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
+
+
+def test_a_wall_shelfs_bracket_hanging_under_its_board_joins_it_a_stack_standing_under_a_stack_does_not():
+    board = _box((0.0, 0.0, 1.3), (0.9, 0.25, 1.35))  # a wall shelf's board against the wall y = 0
+    bracket = _box((0.1, 0.0, 1.15), (0.15, 0.2, 1.275))  # as deep as the board, parted from it by colour
+    sp, region = _scan([board, bracket])
+    out, joined = _join_stems(sp, region, CFG, WALL)
+    assert joined == 1 and out[0] == out[1]
+    # the same under a second board 15 cm below it: it stands on that board (two stacks on a shelf)
+    sp, region = _scan([board, bracket, _box((0.0, 0.0, 1.1), (0.9, 0.25, 1.125))])
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
+    # the same pair 50 cm off the wall: nothing fixes the lower one to a wall, so it is no bracket
+    sp, region = _scan([board + [0.0, 0.5, 0.0], bracket + [0.0, 0.5, 0.0]])
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
 
 
 def test_a_lamps_stem_whose_top_the_fusion_lost_joins_its_shade_a_stem_far_under_it_does_not():
@@ -245,15 +266,15 @@ def test_a_lamps_stem_whose_top_the_fusion_lost_joins_its_shade_a_stem_far_under
     # a base broader than the shade on one side (8 cm past it), its stem ending 6 cm under the shade
     base = np.concatenate([_box((0.4, 0.4, 0.5), (0.73, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.79))])
     sp, region = _scan([base, shade])
-    out, joined = _join_stems(sp, region, CFG)
+    out, joined = _join_stems(sp, region, CFG, WALL)
     assert joined == 1 and out[0] == out[1]
     # the same stem ending 15 cm under the shade: two things, one over the other
     sp, region = _scan([base, shade + [0.0, 0.0, 0.09]])
-    assert _join_stems(sp, region, CFG)[1] == 0
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
     # a base mostly beyond the shade's footprint stays apart even when its stem ends under the shade
     wide = np.concatenate([_box((0.45, 0.4, 0.5), (1.2, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.83))])
     sp, region = _scan([wide, shade])
-    assert _join_stems(sp, region, CFG)[1] == 0
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
 
 
 def _lying_on(top: np.ndarray, body: np.ndarray) -> np.ndarray:
