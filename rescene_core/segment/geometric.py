@@ -363,14 +363,20 @@ def _trim_overhang(along: NDArray, side: NDArray, lo: float, hi: float, cfg: Seg
     ``wall_max_behind`` of the scene's points (at positions ``along`` [k], signed distances ``side`` [k] from
     the plane, positive towards the room) lie behind the plane: the inner walls of an L-shaped room, whose
     plane runs on past the corner across the other arm (coplanar faces of furniture there stretch the span
-    over it). A furniture face with the room behind it all along trims to nothing."""
+    over it). Nothing is left of a face with the room behind it all along, or behind some bin between the
+    ends kept (a wardrobe's front standing in the room before the inner wall it hides)."""
     edges = np.arange(lo, hi + cfg.wall_bin, cfg.wall_bin)
     if len(edges) < 2:
         return lo, hi
     total, _ = np.histogram(along, bins=edges)
     behind, _ = np.histogram(along[side < -2 * cfg.plane_distance], bins=edges)
-    clear = np.flatnonzero(behind <= cfg.wall_max_behind * np.maximum(total, 1))
+    ok = behind <= cfg.wall_max_behind * np.maximum(total, 1)
+    clear = np.flatnonzero(ok)
     if len(clear) == 0:
+        return lo, lo
+    if (clear[0] > 0 or clear[-1] < len(ok) - 1) and not ok[clear[0] : clear[-1] + 1].all():
+        # trimmed, and the room lies behind it between its ends as well: a furniture face standing in the
+        # room in line with a wall hidden behind it (a wardrobe's front before an inner wall), not a wall
         return lo, lo
     return float(edges[clear[0]]), min(float(edges[clear[-1] + 1]), hi)
 
@@ -423,10 +429,14 @@ def _structure(
                 # the room lies on the other side (the cameras' centre can lie outside an L-shaped room's arm)
                 n, d, horiz, side = -n, -d, -horiz, -side
                 lo, hi = -hi, -lo
-            lo, hi = _trim_overhang(thin @ horiz, thin @ n + d, lo, hi, cfg)
-            within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
-            side = thin[within] @ n + d
             behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
+            if behind > cfg.wall_max_behind:
+                # an inner wall whose plane runs on across the room's other arm: its stretch less the ends
+                # with the room behind them
+                lo, hi = _trim_overhang(thin @ horiz, thin @ n + d, lo, hi, cfg)
+                within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
+                side = thin[within] @ n + d
+                behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
             # a face parallel to a wall just in front of it is furniture against the wall (a wardrobe's front)
             # (measured at its own inliers: a plane tilted a degree off the wall it parallels crosses it)
             shadow = any(
