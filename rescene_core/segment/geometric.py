@@ -381,6 +381,23 @@ def _trim_overhang(along: NDArray, side: NDArray, lo: float, hi: float, cfg: Seg
     return float(edges[clear[0]]), min(float(edges[clear[-1] + 1]), hi)
 
 
+def _side_within(
+    points: NDArray, normal: NDArray, offset: float, horiz: NDArray, lo: float, hi: float, cfg: SegmentConfig
+) -> NDArray[np.float64]:
+    """Signed distances (m, positive towards the room) from a wall plane (``normal`` [3], ``offset``) of the
+    points [k, 3] lying along its stretch [lo, hi] (m along ``horiz`` [3]), kept two ``wall_bin`` inside its
+    ends (the perpendicular wall at an inner corner stands right there)."""
+    along = points @ horiz
+    within = (along > lo + 2 * cfg.wall_bin) & (along < hi - 2 * cfg.wall_bin)
+    return points[within] @ normal + offset
+
+
+def _share_behind(side: NDArray, cfg: SegmentConfig) -> float:
+    """Share of the signed distances ``side`` [k] (``_side_within``) behind the plane by more than two
+    ``plane_distance``; 1 when there are none."""
+    return float((side < -cfg.plane_distance * 2).mean()) if len(side) else 1.0
+
+
 def _structure(
     verts: NDArray, normals: NDArray, cams: NDArray, cfg: SegmentConfig
 ) -> tuple[NDArray[np.int64], list[dict[str, Any]]]:
@@ -422,21 +439,17 @@ def _structure(
             height = float(np.ptp(pts[on_wall, 2]))
             # only what lies behind the wall's own span counts: in an L-shaped room the other arm lies
             # behind the plane of an inner wall, beside the wall itself
-            # (kept 2 bins inside its ends: the perpendicular wall at an inner corner stands right there)
-            within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
-            side = thin[within] @ n + d
+            side = _side_within(thin, n, d, horiz, lo, hi, cfg)
             if (side < -cfg.plane_distance * 2).sum() > (side > cfg.plane_distance * 2).sum():
                 # the room lies on the other side (the cameras' centre can lie outside an L-shaped room's arm)
                 n, d, horiz, side = -n, -d, -horiz, -side
                 lo, hi = -hi, -lo
-            behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
+            behind = _share_behind(side, cfg)
             if behind > cfg.wall_max_behind:
                 # an inner wall whose plane runs on across the room's other arm: its stretch less the ends
                 # with the room behind them
                 lo, hi = _trim_overhang(thin @ horiz, thin @ n + d, lo, hi, cfg)
-                within = (thin @ horiz > lo + 2 * cfg.wall_bin) & (thin @ horiz < hi - 2 * cfg.wall_bin)
-                side = thin[within] @ n + d
-                behind = float((side < -cfg.plane_distance * 2).mean()) if within.any() else 1.0
+                behind = _share_behind(_side_within(thin, n, d, horiz, lo, hi, cfg), cfg)
             # a face parallel to a wall just in front of it is furniture against the wall (a wardrobe's front)
             # (measured at its own inliers: a plane tilted a degree off the wall it parallels crosses it)
             shadow = any(
@@ -555,6 +568,13 @@ def scan_points(
     label = felzenszwalb(len(P), edges, weights, cfg.fh_k if fh_k is None else fh_k, cfg.fh_min_size)
     graph = superpoint_graph(P, N, C, label, edges, concave, step)
     return ScanPoints(P, N, C, Wl, vertex_point, edges, graph)
+
+
+def points_by_region(point_region: NDArray[np.int64], n: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The point indices sorted by region (``point_region`` [k], ids below ``n``) and where each region's run
+    starts [n + 1]: region r's points are ``order[start[r] : start[r + 1]]``."""
+    order = np.argsort(point_region, kind="stable")
+    return order, np.searchsorted(point_region[order], np.arange(n + 1))
 
 
 def _components(n: int, pairs: NDArray[np.int64], keep: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -1059,8 +1079,7 @@ def _join_stems(
     keep = cover >= cfg.stem_overlap * area
     lows, tops = lows[keep], tops[keep]
     order = np.argsort(np.abs(gap[lows, tops]), kind="stable")  # the nearest one over it first
-    by_region = np.argsort(point_region, kind="stable")
-    start = np.searchsorted(point_region[by_region], np.arange(n + 1))
+    by_region, start = points_by_region(point_region, n)
     remap = np.arange(n)
     joined = 0
     for low, top in zip(lows[order].tolist(), tops[order].tolist(), strict=True):
@@ -1258,8 +1277,9 @@ def _attach_backs(
     A region within ``back_depth`` of a wall reaching from under the top of a region it touches
     (``min_contacts`` graph contacts) to over it, that region holding that share of its stretch and it
     spanning ``support_span_fraction`` of that region's, joins it (a mirror standing behind a desk is
-    narrower than the desk): a bed's headboard, its lower part hidden behind the bed, upright as a monitor on a desk and parted from the
-    bedding by colour and the crease where the mattress meets it. Returns the regions and how many joined."""
+    narrower than the desk): a bed's headboard, its lower part hidden behind the bed, upright as a monitor
+    on a desk and parted from the bedding by colour and the crease where the mattress meets it. Returns the
+    regions and how many joined."""
     g = sp.graph
     walls = [(np.asarray(q["normal"], float), float(q["offset"])) for q in planes if q["kind"] == "wall"]
     n = int(region.max(initial=0)) + 1
@@ -1267,8 +1287,7 @@ def _attach_backs(
         return region, 0
     point_region = region[g.label]
     lo, hi = _region_bounds(g, region, n)
-    by_region = np.argsort(point_region, kind="stable")
-    start = np.searchsorted(point_region[by_region], np.arange(n + 1))
+    by_region, start = points_by_region(point_region, n)
     # the depth of each region in front of each wall: the larger of its 95th-percentile distance either side
     depth = np.full(n, np.inf)
     wall_of = np.zeros(n, np.int64)
@@ -1452,8 +1471,7 @@ def _filter_regions(
     normals = {int(p["id"]): (np.asarray(p["normal"]), float(p["offset"])) for p in planes if p["kind"] == "wall"}
     paint = wall_colours(sp)
     nxt = 1
-    order = np.argsort(point_region, kind="stable")
-    bounds = np.searchsorted(point_region[order], np.arange(int(region.max()) + 2))
+    order, bounds = points_by_region(point_region, int(region.max()) + 1)
     for r in range(1, int(region.max()) + 1):
         idx = order[bounds[r] : bounds[r + 1]]
         if len(idx) == 0:

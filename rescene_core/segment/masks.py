@@ -35,6 +35,7 @@ from rescene_core.segment.geometric import (
     _filter_regions,
     _finish,
     fuse_scan,
+    points_by_region,
     wall_superpoints,
 )
 from rescene_core.segment.lift import FrameCounts, frame_counts, votes_from_counts
@@ -196,9 +197,8 @@ def _region_gaps(sp: ScanPoints, region: NDArray[np.int64], gap: float) -> dict[
     Pairs are tested only when their bounds, grown by ``gap``, overlap; then by a k-d tree of one region's
     points (scipy's ``cKDTree``)."""
     point_region = region[sp.graph.label]
-    order = np.argsort(point_region, kind="stable")
     n = int(region.max(initial=0)) + 1
-    bounds = np.searchsorted(point_region[order], np.arange(n + 1))
+    order, bounds = points_by_region(point_region, n)
     pts = {r: sp.points[order[bounds[r] : bounds[r + 1]]] for r in range(1, n) if bounds[r + 1] > bounds[r]}
     lo = {r: p.min(axis=0) for r, p in pts.items()}
     hi = {r: p.max(axis=0) for r, p in pts.items()}
