@@ -48,11 +48,14 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict
+from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+from shapely.geometry import MultiPoint, Polygon
 
 from rescene_core.geometry.open3d_rng import seeded_open3d_rng
 from rescene_core.render.raycast import RayCaster
@@ -239,6 +242,28 @@ class SegmentConfig(BaseModel):
     bedding_flatness: float = 0.5
     """A region lying on a mattress no taller than this fraction of its smaller horizontal extent is bedding
     and joins the bed (a pillow is 10-20 cm thick on 40-50 cm); a lamp or a person sitting is taller."""
+    beside_min_height: float = 0.68
+    """A top at least this high (m) (a table's or a desk's is at 0.72-0.78, a tall bed's mattress at most at
+    0.65) ..."""
+    beside_min_width: float = 0.4
+    """... at least this wide both ways (m) (a sofa's back is narrower), whose footprint is as large as a
+    square of this side, parts from its region what stands on the floor beside it: chairs at a dining
+    table, joined to it where their backs come within a few centimetres of the table's edge. What lies
+    within this margin (m) of the footprint's outline stays with the top ..."""
+    beside_margin: float = 0.05
+    """... (the top's edge face lies up to a voxel beyond its upward-facing points, and the fused surface
+    runs on along the edge between two chairs) ..."""
+    beside_floor_gap: float = 0.15
+    """... and a part beside it is a piece of its own when its lowest point is at most this high (m), ..."""
+    beside_rise: float = 0.03
+    """... it rises at least this far over the top (m) (a chair's back rises 5-20 cm over a table's top; the
+    sides of a case under a top seen only in part end at the top) ..."""
+    beside_rise_points: int = 10
+    """... with at least this many points (a chair's back rail is 35-45 cm wide: 14-18 points a row; a
+    case's side may poke a voxel over its top at a corner), ..."""
+    beside_min_tall: float = 0.3
+    """... it is at least this tall (m) and ``min_segment_extent`` wide both ways (a side panel's outer face
+    is thinner)."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -787,6 +812,14 @@ def split_bodies_on_tops(
             slab = mine & up & (np.abs(z - h) <= cfg.support_band / 2)
             if slab.sum() < cfg.top_min_points:
                 continue
+            beside = _pieces_beside_top(sp, mine, slab, h, cfg)
+            for piece in beside:
+                point_region[piece] = nxt
+                nxt += 1
+                split += 1
+            if beside:
+                mine = (point_region == r) & off_wall
+                slab &= mine
             tlo, thi = sp.points[slab, :2].min(axis=0), sp.points[slab, :2].max(axis=0)
             above = mine & (z > h + cfg.top_clearance)
             if above.sum() < cfg.min_segment_points:
@@ -831,6 +864,71 @@ def split_bodies_on_tops(
     new_which = which[uk // nxt]
     graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
     return replace(sp, graph=graph), new_region, new_which, split
+
+
+def _footprint(top: NDArray, cell: float) -> tuple[NDArray[np.bool_], Polygon]:
+    """The footprint of a top from its upward-facing points ``top`` [k, 2] (x, y, m) on a grid of ``cell`` (m):
+    the cells holding points, gaps of a cell closed, strips narrower than three cells opened away (the rail
+    of a chair's back level with a table's top), the largest connected piece with its holes filled. Returns
+    the footprint's cells [i, j] and the smallest rectangle around the points in them (what stands on the
+    top hides it, at its edges and corners too)."""
+    origin = top.min(axis=0) - 3 * cell
+    ij = np.floor((top - origin) / cell).astype(np.int64)
+    grid = np.zeros(tuple(ij.max(axis=0) + 4), bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    grid = ndimage.binary_opening(ndimage.binary_closing(grid), np.ones((3, 3), bool))
+    labels, k = ndimage.label(grid)
+    if k == 0:
+        return grid, Polygon()
+    foot = ndimage.binary_fill_holes(labels == 1 + int(np.argmax(np.bincount(labels.ravel())[1:])))
+    return foot, MultiPoint(top[foot[ij[:, 0], ij[:, 1]]]).oriented_envelope
+
+
+def _pieces_beside_top(
+    sp: ScanPoints, mine: NDArray[np.bool_], slab: NDArray[np.bool_], h: float, cfg: SegmentConfig
+) -> list[NDArray[np.bool_]]:
+    """Pieces of a region standing on the floor beside one of its high tops, outside the top's footprint:
+    chairs at a dining table or a desk, whose backs come within a few centimetres of its edge (the fused
+    surface bridges the gap).
+
+    ``mine`` [n]: the region's points; ``slab`` [n]: the top's upward-facing points at height ``h`` (m).
+    The top must be ``beside_min_height`` high, ``beside_min_width`` wide both ways and its footprint
+    (``_footprint``) as large as a square of that side. The region's points more than ``beside_margin``
+    outside the footprint's outline fall into connected parts of the point graph; a part is a piece of its
+    own when it has
+    ``min_segment_points`` points, reaches down to ``beside_floor_gap`` over the floor, has
+    ``beside_rise_points`` points ``beside_rise`` over the top, is ``beside_min_tall`` tall and ``min_segment_extent`` wide both ways.
+    Returns the points [n] of each piece."""
+    top = sp.points[slab, :2]
+    if h < cfg.beside_min_height or np.min(top.max(axis=0) - top.min(axis=0)) < cfg.beside_min_width:
+        return []
+    cell = 2.0 * cfg.superpoint_voxel  # every cell of a top seen whole holds points
+    foot, outline = _footprint(top, cell)
+    if foot.sum() * cell**2 < cfg.beside_min_width**2:
+        return []  # too little of it seen to tell its outline
+    out = mine.copy()
+    out[mine] = ~shapely.contains_xy(outline.buffer(cfg.beside_margin), sp.points[mine, 0], sp.points[mine, 1])
+    n_out = int(out.sum())
+    if n_out < cfg.min_segment_points:
+        return []
+    i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
+    inner = out[i0] & out[i1]
+    local = np.cumsum(out) - 1
+    adj = coo_matrix((np.ones(int(inner.sum())), (local[i0[inner]], local[i1[inner]])), shape=(n_out, n_out))
+    comp = np.full(len(out), -1, np.int64)
+    comp[out] = connected_components(adj, directed=False)[1]
+    ids, counts = np.unique(comp[out], return_counts=True)
+    pieces = []
+    for c in ids[counts >= cfg.min_segment_points].tolist():
+        piece = comp == c
+        p = sp.points[piece]
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        rises = int((p[:, 2] > h + cfg.beside_rise).sum()) >= cfg.beside_rise_points
+        if lo[2] > cfg.beside_floor_gap or not rises or hi[2] - lo[2] < cfg.beside_min_tall:
+            continue  # not on the floor (a lamp's shade over the edge), or lower than the top (a case's side)
+        if np.min(hi[:2] - lo[:2]) >= cfg.min_segment_extent:
+            pieces.append(piece)
+    return pieces
 
 
 def _stored_bodies(

@@ -387,3 +387,60 @@ def test_a_stack_against_a_bookcases_back_is_split_off_a_cushion_with_nothing_ov
             assert (point_region[~stack] == 1).all()
         else:
             assert split == 0 and (point_region == 1).all()
+
+
+def _up(lo: tuple[float, float, float], hi: tuple[float, float, float]):
+    return _faces(lo, hi, (0.0, 0.0, 1.0))
+
+
+def _side(lo: tuple[float, float, float], hi: tuple[float, float, float]):
+    return _faces(lo, hi, (1.0, 0.0, 0.0))
+
+
+def _split(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, int]:
+    """The region of each point after ``split_bodies_on_tops`` on one region holding all ``faces``."""
+    from rescene_core.segment.geometric import split_bodies_on_tops
+
+    sp = _surfaces(faces)
+    region = np.ones(sp.graph.size, np.int64)
+    sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+    return region2[sp2.graph.label], split
+
+
+def test_chairs_beside_a_table_are_parted_from_it_its_legs_and_what_stands_on_it_are_not():
+    # a dining table 1.4 by 0.9 m, its top at 0.75 m; a box on its corner hides the top there
+    top = _up((0.0, 0.0, 0.75), (1.4, 0.9, 0.75))
+    box = (top[0][:, 0] > 1.2) & (top[0][:, 1] > 0.7)
+    table = [(top[0][~box], top[1][~box]), _side((0.0, 0.0, 0.725), (0.0, 0.9, 0.725))]
+    table += [_side((x, y, 0.05), (x + 0.05, y + 0.05, 0.7)) for x in (0.05, 1.3) for y in (0.05, 0.8)]
+    table += [_up((1.225, 0.725, 0.9), (1.4, 0.9, 0.9)), _side((1.2, 0.7, 0.775), (1.2, 0.9, 0.875))]
+    # a chair whose back stands 7.5 cm off the table's long edge (y = 0), reaching 17 cm over its top; the
+    # fused surface bridges the gap under the back's upper rail
+    chair = [
+        _up((0.45, -0.55, 0.45), (0.9, -0.1, 0.45)),
+        _faces((0.45, -0.075, 0.475), (0.9, -0.075, 0.925), (0, 1, 0)),
+    ]
+    chair += [_side((x, y, 0.05), (x + 0.025, y + 0.025, 0.425)) for x in (0.45, 0.875) for y in (-0.55, -0.1)]
+    bridge = _faces((0.5, -0.05, 0.8), (0.85, -0.025, 0.8), (0, 1, 0))
+    point_region, split = _split(table + chair + [bridge])
+    n_table = sum(len(f[0]) for f in table)
+    n_chair = sum(len(f[0]) for f in chair)
+    on_chair = point_region[n_table : n_table + n_chair]
+    assert split == 1
+    assert (point_region[:n_table] == 1).all()  # its top, its legs and the box on its corner
+    assert len(np.unique(on_chair)) == 1 and on_chair[0] != 1
+
+
+def test_the_sides_under_a_top_seen_in_part_and_a_sofas_seat_before_its_back_are_not_parted():
+    # a wardrobe 1.2 by 0.6 m, 2 m tall, whose top is seen only along its front (15 cm): its sides and
+    # back lie beyond what is seen of the top but end at it
+    strip = _up((0.0, 0.0, 2.0), (1.2, 0.15, 2.0))
+    wardrobe = [strip, _faces((0.0, 0.0, 0.05), (1.2, 0.0, 1.975), (0, -1, 0))]
+    wardrobe += [_side((x, 0.025, 0.05), (x, 0.6, 1.975)) for x in (0.0, 1.2)]
+    point_region, split = _split(wardrobe)
+    assert split == 0 and (point_region == 1).all()
+    # a sofa 2 m wide: its back's top at 0.85 m is 20 cm deep, its seat before it is lower
+    sofa = [_up((0.0, 0.7, 0.85), (2.0, 0.9, 0.85)), _faces((0.0, 0.7, 0.45), (2.0, 0.7, 0.825), (0, -1, 0))]
+    sofa += [_up((0.0, 0.0, 0.45), (2.0, 0.675, 0.45)), _faces((0.0, 0.0, 0.05), (2.0, 0.0, 0.425), (0, -1, 0))]
+    point_region, split = _split(sofa)
+    assert split == 0 and (point_region == 1).all()
