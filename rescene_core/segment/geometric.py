@@ -264,6 +264,16 @@ class SegmentConfig(BaseModel):
     beside_min_tall: float = 0.3
     """... it is at least this tall (m) and ``min_segment_extent`` wide both ways (a side panel's outer face
     is thinner)."""
+    stored_top_sides: int = 1
+    """A body stored on a shelf under a board of its case needs its shelf seen beyond it on this many of its
+    four sides (the shelf beyond a stack is hidden behind it, or the stack stands against the case's side)."""
+    stored_board_reach: float = 0.5
+    """A body is stored on a shelf of its case when a board of the case lies at most this far over it (m) (a
+    bookcase's shelves are 30-48 cm apart) ..."""
+    stored_board_share: float = 0.2
+    """... over at least this share of its footprint in 5 cm cells (a board over a stack above the cameras'
+    height, seen only along its front edge, covered 37 % of the stack; a picture hung over a bed's
+    headboard and pillows, 1 %)."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -834,6 +844,7 @@ def split_bodies_on_tops(
             # parts touching the region below the top (a leg, a side panel, a hutch's sides) are no bodies on it
             down = np.unique(np.r_[comp[i0[above[i0] & below[i1]]], comp[i1[above[i1] & below[i0]]]])
             ids, counts = np.unique(comp[above], return_counts=True)
+            frame = list(down)  # parts of the piece's own above the top, which may hold stored bodies
             for c in ids[counts >= cfg.min_segment_points].tolist():
                 if c in down or h < cfg.support_min_height:
                     continue
@@ -845,13 +856,14 @@ def split_bodies_on_tops(
                     continue  # it does not stand on the top (a shelf board over it, a part beside it)
                 foot = p[p[:, 2] <= lo[2] + cfg.foot_height]
                 if not _held_by_top(lo, hi, sp.points[slab, :2], cfg, foot.min(axis=0), foot.max(axis=0)):
-                    continue  # a chair's back, a headboard, a hutch: the piece's own
+                    frame.append(c)  # a chair's back, a headboard, a hutch, a case's frame over its shelf
+                    continue
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
             # what the region's frame holds fast above the top, or all above a top too low to carry bodies
             # of their own: a body stored on the shelf of a case
-            stuck = above & (np.isin(comp, down) | (h < cfg.support_min_height)) & (point_region == r)
+            stuck = above & (np.isin(comp, frame) | (h < cfg.support_min_height)) & (point_region == r)
             for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, ~concave, cfg):
                 point_region[body] = nxt
                 nxt += 1
@@ -868,19 +880,17 @@ def split_bodies_on_tops(
 
 def _footprint(top: NDArray, cell: float) -> tuple[NDArray[np.bool_], Polygon]:
     """The footprint of a top from its upward-facing points ``top`` [k, 2] (x, y, m) on a grid of ``cell`` (m):
-    the cells holding points, gaps of a cell closed, strips narrower than three cells opened away (the rail
-    of a chair's back level with a table's top), the largest connected piece with its holes filled. Returns
-    the footprint's cells [i, j] and the smallest rectangle around the points in them (what stands on the
-    top hides it, at its edges and corners too)."""
+    the cells holding points, gaps of a cell closed and strips narrower than three cells opened away (the
+    rail of a chair's back level with a table's top). Returns the footprint's cells [i, j] and the smallest
+    rectangle around the points in them: what stands on the top hides it, at its edges and corners too,
+    and may part what is seen of it in two (a cabinet's top with book stacks across it)."""
     origin = top.min(axis=0) - 3 * cell
     ij = np.floor((top - origin) / cell).astype(np.int64)
     grid = np.zeros(tuple(ij.max(axis=0) + 4), bool)
     grid[ij[:, 0], ij[:, 1]] = True
-    grid = ndimage.binary_opening(ndimage.binary_closing(grid), np.ones((3, 3), bool))
-    labels, k = ndimage.label(grid)
-    if k == 0:
-        return grid, Polygon()
-    foot = ndimage.binary_fill_holes(labels == 1 + int(np.argmax(np.bincount(labels.ravel())[1:])))
+    foot = ndimage.binary_opening(ndimage.binary_closing(grid), np.ones((3, 3), bool))
+    if not foot.any():
+        return foot, Polygon()
     return foot, MultiPoint(top[foot[ij[:, 0], ij[:, 1]]]).oriented_envelope
 
 
@@ -1006,11 +1016,15 @@ def _stored_bodies(
         if count[body].sum() < cfg.min_segment_points or float(np.min(bhi - blo)) < cfg.body_min_thickness:
             continue
         centre = 0.5 * (blo[:2] + bhi[:2])
-        if np.any(centre < tlo) or np.any(centre > thi) or not _held_by_top(blo, bhi, top, cfg):
-            continue
+        if (
+            np.any(centre < tlo)
+            or np.any(centre > thi)
+            or not _held_by_top(blo, bhi, top, cfg, least=cfg.stored_top_sides)
+        ):
+            continue  # beside the shelf, the shelf seen nowhere beyond it, or spanned both ways
         if _stored_upright(case, blo, bhi, cfg):
             continue  # books standing in a row: the bookcase's own
-        if not _under_board(case, blo, bhi, cfg):
+        if _board_share(case, blo, bhi, cfg) < cfg.stored_board_share:
             continue  # nothing of the case over it: a cushion against a sofa's back
         points = np.isin(part, body)
         taken[body] = True
@@ -1038,6 +1052,7 @@ def _held_by_top(
     cfg: SegmentConfig,
     foot_lo: NDArray | None = None,
     foot_hi: NDArray | None = None,
+    least: int | None = None,
 ) -> bool:
     """Whether a part above a top, with bounds ``lo``, ``hi`` [3] (m), stands on it as a body of its own
     rather than being the piece's own back: the top's upward-facing points ``top`` [k, 2] (x, y) reach
@@ -1053,6 +1068,8 @@ def _held_by_top(
     if spans.all():
         return False
     sides = _sides_beyond(lo if foot_lo is None else foot_lo, hi if foot_hi is None else foot_hi, top, cfg)
+    if least is not None:
+        return int(sides.sum()) >= least
     if not spans.any():
         return int(sides.sum()) >= cfg.top_sides
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
@@ -1306,6 +1323,18 @@ def _under_board(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig, re
     over = np.all((case[:, :2] >= lo[:2]) & (case[:, :2] <= hi[:2]), axis=1)
     over &= (case[:, 2] > hi[2]) & (case[:, 2] <= hi[2] + reach)
     return int(over.sum()) >= cfg.min_contacts
+
+
+def _board_share(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> float:
+    """The share of the footprint of what stands in a case (bounds ``lo``, ``hi`` [3], m), in cells of twice
+    ``superpoint_voxel``, that has a point of the case ``case`` [k, 3] over it, higher than its top by at
+    most ``stored_board_reach`` (m): 1 under a shelf board."""
+    cell = 2.0 * cfg.superpoint_voxel
+    shape = np.maximum(np.ceil((hi[:2] - lo[:2]) / cell).astype(np.int64), 1)
+    over = np.all((case[:, :2] >= lo[:2]) & (case[:, :2] <= hi[:2]), axis=1)
+    over &= (case[:, 2] > hi[2]) & (case[:, 2] <= hi[2] + cfg.stored_board_reach)
+    ij = np.minimum(((case[over, :2] - lo[:2]) / cell).astype(np.int64), shape - 1)
+    return len(np.unique(ij[:, 0] * shape[1] + ij[:, 1])) / float(np.prod(shape))
 
 
 def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:

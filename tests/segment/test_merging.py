@@ -444,3 +444,34 @@ def test_the_sides_under_a_top_seen_in_part_and_a_sofas_seat_before_its_back_are
     sofa += [_up((0.0, 0.0, 0.45), (2.0, 0.675, 0.45)), _faces((0.0, 0.0, 0.05), (2.0, 0.0, 0.425), (0, -1, 0))]
     point_region, split = _split(sofa)
     assert split == 0 and (point_region == 1).all()
+
+
+def test_a_stack_at_a_shelfs_hidden_end_under_the_next_board_is_split_off_the_case_frame_above_it():
+    # a bookcase's shelf at 0.9 m, 0.8 m wide and 0.3 m deep, seen up to x = 0.45 and along its front edge: a
+    # stack at x 0.5-0.7 hides the rest; the case's sides and the next board over the shelf are all of the
+    # case the region holds above the shelf, joined to nothing under it
+    case = [_up((0.0, 0.0, 0.9), (0.45, 0.3, 0.9)), _up((0.475, 0.3, 0.9), (0.8, 0.3, 0.9))]
+    case += [_faces((0.0, 0.0, 1.3), (0.8, 0.3, 1.3), (0, 0, -1))]
+    case += [_side((x, 0.0, 0.925), (x, 0.3, 1.275)) for x in (0.0, 0.8)]
+    stack = [_up((0.5, 0.025, 1.0), (0.7, 0.25, 1.0)), _faces((0.5, 0.275, 0.925), (0.7, 0.275, 0.975), (0, 1, 0))]
+    stack += [_side((x, 0.025, 0.925), (x, 0.25, 0.975)) for x in (0.475, 0.725)]
+    point_region, split = _split(case + stack)
+    n_case = sum(len(f[0]) for f in case)
+    assert split == 1
+    assert (point_region[:n_case] == 1).all()
+    assert len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
+
+
+def test_a_board_covers_what_is_stored_under_it_a_picture_over_a_headboard_does_not():
+    from rescene_core.segment.geometric import _board_share
+
+    lo, hi = np.array([0.5, 0.0, 0.9]), np.array([0.7, 0.25, 1.0])  # a book stack on a shelf
+    board = _box((0.0, 0.0, 1.3), (0.8, 0.3, 1.3))
+    assert _board_share(board, lo, hi, CFG) == 1.0
+    lip = _box((0.0, 0.225, 1.28), (0.8, 0.25, 1.3))  # the board over it seen along its front edge only
+    assert CFG.stored_board_share <= _board_share(lip, lo, hi, CFG) < 0.5
+    assert _board_share(board, lo, hi + [0.0, 0.0, 0.3], CFG) == 0.0  # the board 0.5 m over it is too far
+    # a bed's headboard and pillows, 1.8 m wide, and a picture 60 cm wide hung on the wall over them
+    bed_lo, bed_hi = np.array([0.0, 0.0, 0.5]), np.array([1.8, 0.5, 0.9])
+    picture = _box((0.6, 0.0, 1.2), (1.2, 0.025, 1.35))
+    assert _board_share(picture, bed_lo, bed_hi, CFG) < CFG.stored_board_share
