@@ -262,8 +262,11 @@ class SegmentConfig(BaseModel):
     """... with at least this many points (a chair's back rail is 35-45 cm wide: 14-18 points a row; a
     case's side may poke a voxel over its top at a corner), ..."""
     beside_min_tall: float = 0.3
-    """... it is at least this tall (m) and ``min_segment_extent`` wide both ways (a side panel's outer face
-    is thinner)."""
+    """... it is at least this tall (m), ..."""
+    beside_piece_width: float = 0.25
+    """... at least this wide both ways (m) (a chair or a stool is 0.3-0.5 m; a strip of wall in a corner
+    beside a cabinet, 10 by 13 cm, is none) and holds fewer than ``top_min_points`` of the top's own
+    upward-facing points (a cabinet's end whose top a book stack hides is the cabinet's)."""
     stored_top_sides: int = 1
     """A body stored on a shelf under a board of its case needs its shelf seen beyond it on this many of its
     four sides (the shelf beyond a stack is hidden behind it, or the stack stands against the case's side)."""
@@ -905,9 +908,9 @@ def _pieces_beside_top(
     The top must be ``beside_min_height`` high, ``beside_min_width`` wide both ways and its footprint
     (``_footprint``) as large as a square of that side. The region's points more than ``beside_margin``
     outside the footprint's outline fall into connected parts of the point graph; a part is a piece of its
-    own when it has
-    ``min_segment_points`` points, reaches down to ``beside_floor_gap`` over the floor, has
-    ``beside_rise_points`` points ``beside_rise`` over the top, is ``beside_min_tall`` tall and ``min_segment_extent`` wide both ways.
+    own when it has ``min_segment_points`` points, reaches down to ``beside_floor_gap`` over the floor, has
+    ``beside_rise_points`` points ``beside_rise`` over the top, is ``beside_min_tall`` tall and
+    ``beside_piece_width`` wide both ways, and holds fewer than ``top_min_points`` of the top's points.
     Returns the points [n] of each piece."""
     top = sp.points[slab, :2]
     if h < cfg.beside_min_height or np.min(top.max(axis=0) - top.min(axis=0)) < cfg.beside_min_width:
@@ -936,7 +939,7 @@ def _pieces_beside_top(
         rises = int((p[:, 2] > h + cfg.beside_rise).sum()) >= cfg.beside_rise_points
         if lo[2] > cfg.beside_floor_gap or not rises or hi[2] - lo[2] < cfg.beside_min_tall:
             continue  # not on the floor (a lamp's shade over the edge), or lower than the top (a case's side)
-        if np.min(hi[:2] - lo[:2]) >= cfg.min_segment_extent:
+        if np.min(hi[:2] - lo[:2]) >= cfg.beside_piece_width and (piece & slab).sum() < cfg.top_min_points:
             pieces.append(piece)
     return pieces
 

@@ -431,6 +431,16 @@ def test_chairs_beside_a_table_are_parted_from_it_its_legs_and_what_stands_on_it
     assert len(np.unique(on_chair)) == 1 and on_chair[0] != 1
 
 
+def test_a_strip_of_wall_standing_beside_a_cabinets_top_is_not_parted_from_it():
+    # a cabinet 1 m wide, 0.45 m deep, its top at 0.85 m, and a strip of a wall's corner beside its end, 12.5 by
+    # 12.5 cm and 1.1 m tall, in the same region
+    cabinet = [_up((0.0, 0.0, 0.85), (1.0, 0.45, 0.85)), _faces((0.0, 0.45, 0.05), (1.0, 0.45, 0.825), (0, 1, 0))]
+    strip = [_side((x, 0.0, 0.05), (x, 0.125, 1.15)) for x in (1.1, 1.225)]
+    strip += [_faces((1.125, y, 0.05), (1.2, y, 1.15), (0, 1, 0)) for y in (0.0, 0.125)]
+    point_region, split = _split(cabinet + strip)
+    assert split == 0 and (point_region == 1).all()
+
+
 def test_the_sides_under_a_top_seen_in_part_and_a_sofas_seat_before_its_back_are_not_parted():
     # a wardrobe 1.2 by 0.6 m, 2 m tall, whose top is seen only along its front (15 cm): its sides and
     # back lie beyond what is seen of the top but end at it
