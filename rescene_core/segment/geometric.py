@@ -804,9 +804,13 @@ def split_bodies_on_tops(
     ``min_segment_points`` points, begins within ``support_band`` of the top, touches nothing of its region
     below the top (a side panel or a leg does), is narrower than ``support_span_fraction`` of the top both
     ways (a chair's back or a headboard spans its seat) and the top reaches beyond its footprint by
-    ``top_margin`` on ``top_sides`` sides or more of the four (x and y in the aligned frame). Superpoints a
-    body cuts are split. ``which`` [s]: the wall of each superpoint (0: none). Returns the scan points with
-    the new superpoint graph, the region and wall of each new superpoint, and how many bodies were split."""
+    ``top_margin`` on ``top_sides`` sides or more of the four (x and y in the aligned frame). Before that,
+    pieces standing on the floor beside a high top are parted from it (``_pieces_beside_top``: chairs at a
+    table); after it, the parts joined to the region below the top, and those that failed the body test,
+    are searched for bodies stored on the top (``_stored_bodies``: a case's frame over its shelf holds
+    them). Superpoints a body cuts are split. ``which`` [s]: the wall of each superpoint (0: none). Returns
+    the scan points with the new superpoint graph, the region and wall of each new superpoint, and how
+    many bodies and pieces were split."""
     g = sp.graph
     point_region = region[g.label].copy()
     up = _facing_up(sp.normals)
@@ -958,16 +962,19 @@ def _stored_bodies(
     (a book stack against a bookcase's back panel, flush with the shelf's front edge).
 
     ``stuck`` [n]: the region's points above the top at height ``h`` (m) whose part of the point graph
-    reaches below the top; ``far_below`` [n]: the region's points more than ``support_band`` under the top
+    reaches below the top or failed the test of a body on the top (a case's frame over its shelf, joined
+    to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than ``support_band`` under the top
     (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]: the top's points; ``smooth``
     [e]: the point edges that are not concave creases. The stuck points are parted at their creases (a body
     meets the case's back and the board over it at a concave corner; its own faces meet at convex ones).
     A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
     within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). A body
-    is stored when it has ``min_segment_points`` points, stands on the top (``_held_by_top``), is
-    ``body_min_thickness`` thick every way, is not upright (``_stored_upright``: a row of books standing
-    in a bookcase is the bookcase's) and has a board of the region over it (what has nothing over it, a
-    sofa's back cushion, is the piece's own). Returns the points [n] of each body."""
+    is stored when it has ``min_segment_points`` points, its centre lies over the top's seen bounds, the
+    top is seen beyond it on ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness``
+    thick every way, is not upright (``_stored_upright``: a row of books standing in a bookcase is the
+    bookcase's) and has a board of the region over ``stored_board_share`` of its footprint
+    (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's own). Returns the
+    points [n] of each body."""
     n_pts = int(stuck.sum())
     if n_pts < cfg.min_segment_points:
         return []
@@ -1066,7 +1073,9 @@ def _held_by_top(
     its seat, bed or desk one way and stands at its edge). A body spanning a narrow top one way only is its
     own when the top reaches beyond it on both sides the other way and it is ``body_min_thickness`` thick
     every way: a book stack as deep as the shelf it stands on, clear of the shelf's
-    ends (a divider board across a desk is thinner)."""
+    ends (a divider board across a desk is thinner). With ``least``, a body narrower than the top one way
+    or both needs the top beyond its foot on that many sides only (a body stored under a board of its
+    case, the shelf beyond it hidden)."""
     spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (top.max(axis=0) - top.min(axis=0))
     if spans.all():
         return False
