@@ -228,3 +228,25 @@ def test_the_inner_walls_of_an_l_shaped_room_are_walls_a_face_on_a_wall_is_not()
     assert span[0] >= 2.95  # trimmed at the corner: the wardrobe's side is not wall
     wardrobe = slice(-len(side[0]) - len(parts[-2][0]), -len(side[0]))
     assert (labels[wardrobe] == 0).mean() > 0.9
+
+
+def test_a_walls_stretch_loses_the_ends_with_the_room_behind_a_face_with_the_room_behind_its_middle_goes():
+    from rescene_core.segment.geometric import _trim_overhang
+
+    cfg = SegmentConfig()
+    rng = np.random.default_rng(0)
+    # the scene's points along a plane's 3 m stretch (m along it) and their signed distances from it (m,
+    # positive towards the room): 40 points a 10 cm bin, all in the room
+    along = rng.uniform(0.0, 3.0, 1200)
+    side = rng.uniform(0.1, 3.0, 1200)
+    assert _trim_overhang(along, side, 0.0, 3.0, cfg) == (0.0, 3.0)
+    # an inner wall's plane running on past the corner at 2.2 m across the room's other arm, whose points lie
+    # behind the plane there: the stretch ends at the corner
+    arm = along > 2.2
+    lo, hi = _trim_overhang(along, np.where(arm, -side, side), 0.0, 3.0, cfg)
+    assert lo == 0.0 and 2.15 <= hi <= 2.3
+    # a wardrobe's front standing in the room before the inner wall it hides: the room lies behind it at
+    # its ends and, past its top, over a stretch between them as well; no wall is left of it
+    middle = (along > 1.2) & (along < 1.4)
+    lo, hi = _trim_overhang(along, np.where(arm | middle, -side, side), 0.0, 3.0, cfg)
+    assert hi - lo == 0.0
