@@ -615,6 +615,22 @@ def points_by_region(point_region: NDArray[np.int64], n: int) -> tuple[NDArray[n
     return order, np.searchsorted(point_region[order], np.arange(n + 1))
 
 
+def _point_parts(
+    edges: NDArray[np.int64], mask: NDArray[np.bool_], keep: NDArray[np.bool_] | None = None
+) -> tuple[int, NDArray[np.int64]]:
+    """Connected parts of the points ``mask`` [n] over the point graph's ``edges`` [e, 2] joining two of them
+    (and ``keep`` [e] when given): how many, and the part of each point [n] (0..k-1; -1 outside the mask)."""
+    i0, i1 = edges[:, 0], edges[:, 1]
+    join = mask[i0] & mask[i1] if keep is None else mask[i0] & mask[i1] & keep
+    local = np.cumsum(mask) - 1  # index among the masked points
+    m = int(mask.sum())
+    adj = coo_matrix((np.ones(int(join.sum())), (local[i0[join]], local[i1[join]])), shape=(m, m))
+    k, sub = connected_components(adj, directed=False)
+    part = np.full(len(mask), -1, np.int64)
+    part[mask] = sub
+    return int(k), part
+
+
 def _components(n: int, pairs: NDArray[np.int64], keep: NDArray[np.bool_]) -> NDArray[np.int64]:
     """Connected component [n] of the graph with the ``keep`` pairs as edges."""
     e = pairs[keep]
@@ -842,12 +858,7 @@ def split_bodies_on_tops(
             if above.sum() < cfg.min_segment_points:
                 continue
             below = mine & (z < h - cfg.top_clearance)
-            inner = above[i0] & above[i1]
-            local = np.cumsum(above) - 1  # index among the points above
-            n = int(above.sum())
-            adj = coo_matrix((np.ones(int(inner.sum())), (local[i0[inner]], local[i1[inner]])), shape=(n, n))
-            comp = np.full(len(above), -1, np.int64)
-            comp[above] = connected_components(adj, directed=False)[1]
+            _, comp = _point_parts(sp.edges, above)
             # parts touching the region below the top (a leg, a side panel, a hutch's sides) are no bodies on it
             down = np.unique(np.r_[comp[i0[above[i0] & below[i1]]], comp[i1[above[i1] & below[i0]]]])
             ids, counts = np.unique(comp[above], return_counts=True)
@@ -885,11 +896,11 @@ def split_bodies_on_tops(
     return replace(sp, graph=graph), new_region, new_which, split
 
 
-def _footprint(top: NDArray, cell: float) -> tuple[NDArray[np.bool_], Polygon]:
+def _footprint(top: NDArray, cell: float) -> tuple[float, Polygon]:
     """The footprint of a top from its upward-facing points ``top`` [k, 2] (x, y, m) on a grid of ``cell`` (m):
     the cells holding points, gaps of a cell closed and strips narrower than three cells opened away (the
-    rail of a chair's back level with a table's top). Returns the footprint's cells [i, j] and the smallest
-    rectangle around the points in them: what stands on the top hides it, at its edges and corners too,
+    rail of a chair's back level with a table's top). Returns the footprint's area (m^2) and the smallest
+    rectangle around the points in its cells: what stands on the top hides it, at its edges and corners too,
     and may part what is seen of it in two (a cabinet's top with book stacks across it)."""
     origin = top.min(axis=0) - 3 * cell
     ij = np.floor((top - origin) / cell).astype(np.int64)
@@ -897,8 +908,8 @@ def _footprint(top: NDArray, cell: float) -> tuple[NDArray[np.bool_], Polygon]:
     grid[ij[:, 0], ij[:, 1]] = True
     foot = ndimage.binary_opening(ndimage.binary_closing(grid), np.ones((3, 3), bool))
     if not foot.any():
-        return foot, Polygon()
-    return foot, MultiPoint(top[foot[ij[:, 0], ij[:, 1]]]).oriented_envelope
+        return 0.0, Polygon()
+    return float(foot.sum()) * cell**2, MultiPoint(top[foot[ij[:, 0], ij[:, 1]]]).oriented_envelope
 
 
 def _pieces_beside_top(
@@ -919,21 +930,15 @@ def _pieces_beside_top(
     top = sp.points[slab, :2]
     if h < cfg.beside_min_height or np.min(top.max(axis=0) - top.min(axis=0)) < cfg.beside_min_width:
         return []
-    cell = 2.0 * cfg.superpoint_voxel  # every cell of a top seen whole holds points
-    foot, outline = _footprint(top, cell)
-    if foot.sum() * cell**2 < cfg.beside_min_width**2:
+    area, outline = _footprint(top, 2.0 * cfg.superpoint_voxel)  # every cell of a top seen whole holds points
+    if area < cfg.beside_min_width**2:
         return []  # too little of it seen to tell its outline
     out = mine.copy()
     out[mine] = ~shapely.contains_xy(outline.buffer(cfg.beside_margin), sp.points[mine, 0], sp.points[mine, 1])
     n_out = int(out.sum())
     if n_out < cfg.min_segment_points:
         return []
-    i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
-    inner = out[i0] & out[i1]
-    local = np.cumsum(out) - 1
-    adj = coo_matrix((np.ones(int(inner.sum())), (local[i0[inner]], local[i1[inner]])), shape=(n_out, n_out))
-    comp = np.full(len(out), -1, np.int64)
-    comp[out] = connected_components(adj, directed=False)[1]
+    _, comp = _point_parts(sp.edges, out)
     ids, counts = np.unique(comp[out], return_counts=True)
     pieces = []
     for c in ids[counts >= cfg.min_segment_points].tolist():
@@ -979,13 +984,9 @@ def _stored_bodies(
     if n_pts < cfg.min_segment_points:
         return []
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
-    local = np.cumsum(stuck) - 1
     inner = stuck[i0] & stuck[i1]
-    keep = inner & smooth
-    adj = coo_matrix((np.ones(int(keep.sum())), (local[i0[keep]], local[i1[keep]])), shape=(n_pts, n_pts))
-    k, sub = connected_components(adj, directed=False)
-    part = np.full(len(stuck), -1, np.int64)
-    part[stuck] = sub
+    k, part = _point_parts(sp.edges, stuck, smooth)
+    sub = part[stuck]
     p = sp.points[stuck]
     lo = np.full((k, 3), np.inf)
     hi = np.full((k, 3), -np.inf)
