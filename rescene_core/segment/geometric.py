@@ -280,6 +280,26 @@ class SegmentConfig(BaseModel):
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
+    stacked_min_height: float = 0.15
+    """A region whose lowest point is at least this high (m), resting on something (a potted plant's
+    foliage on the floor narrows upward too), ..."""
+    stacked_max_width: float = 0.45
+    """... at most this wide either way (m) (a book stack is 15-28 cm; with the edge of the shelf or table it
+    rests on, up to 40 cm) and at least ``min_segment_extent`` both ways ..."""
+    stacked_min_part: float = 0.03
+    """... is two bodies, one resting on the other (a book stack on a book stack), when it can be cut at a
+    height at least this far (m) over its foot and under its top (two books of 1.8 cm) ..."""
+    stacked_narrowing: float = 0.8
+    """... where what is above the cut is at most this share of what is below it, both ways, over the whole
+    parts and over the ``stacked_slice`` on either side of the cut (a stack on a stack: 0.6-0.8; the books of
+    one stack, 0.8-1.0 wide each: 0.83 or more; a lamp's shade narrowing up: 0.9 or more) ..."""
+    stacked_slice: float = 0.03
+    """... (m) ..."""
+    stacked_min_points: int = 20
+    """... with at least this many points above and below the cut, ``stacked_slice_points`` in each slice, and
+    ``min_segment_points`` below it."""
+    stacked_slice_points: int = 8
+    """Fewest points of a slice beside the cut of a stack (see ``stacked_min_points``)."""
     structure_band: float = 0.06
     """A cluster lying within this distance of a wall or ceiling plane is a sliver of it (m)..."""
     sliver_thickness: float = 0.07
@@ -783,6 +803,7 @@ def merge_superpoints(
     )
     region, stats["stems_joined"] = _join_stems(sp, region, cfg, planes)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
+    sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
@@ -888,12 +909,85 @@ def split_bodies_on_tops(
                 split += 1
     if split == 0:
         return sp, region, which, 0
-    key = g.label * nxt + point_region
+    return (*_regroup(sp, point_region, which, concave, step), split)
+
+
+def _regroup(
+    sp: ScanPoints, point_region: NDArray[np.int64], which: NDArray[np.int64], concave: NDArray, step: NDArray
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:
+    """The scan points regrouped after regions were split across superpoints: each superpoint cut in as
+    many as the regions of its points (``point_region`` [n]), with the region [s'] and the wall [s'] (from
+    ``which`` [s]) of each new superpoint. ``concave``, ``step`` [e]: the point edges' weights
+    (``edge_weights``)."""
+    nxt = int(point_region.max(initial=0)) + 1
+    key = sp.graph.label * nxt + point_region
     uk, label = np.unique(key, return_inverse=True)
-    new_region = (uk % nxt).astype(np.int64)
-    new_which = which[uk // nxt]
     graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
-    return replace(sp, graph=graph), new_region, new_which, split
+    return replace(sp, graph=graph), (uk % nxt).astype(np.int64), which[uk // nxt]
+
+
+def split_stacked(
+    sp: ScanPoints, region: NDArray[np.int64], which: NDArray[np.int64], cfg: SegmentConfig
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
+    """A body resting on a narrower one, both small, is split off it at the height where the region
+    narrows (``_stack_cut``): a book stack on a book stack. The upper stack's ring of the lower one's top
+    is too narrow and too little seen to be a top (``split_bodies_on_tops``), but the step in width is
+    plain. A region is a candidate when its lowest point is ``stacked_min_height`` high and it is at most
+    ``stacked_max_width`` and at least ``min_segment_extent`` wide both ways. ``region`` [s] (0: none),
+    ``which`` [s]: the wall of each superpoint (0: none). Returns the scan points with the new superpoint
+    graph, the region and wall of each new superpoint, and how many bodies were split."""
+    g = sp.graph
+    point_region = region[g.label].copy()
+    n = int(region.max(initial=0)) + 1
+    order, bounds = points_by_region(point_region, n)
+    nxt, split = n, 0
+    for r in range(1, n):
+        idx = order[bounds[r] : bounds[r + 1]]
+        if len(idx) < cfg.min_segment_points:
+            continue
+        p = sp.points[idx]
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        wide = hi[:2] - lo[:2]
+        if lo[2] < cfg.stacked_min_height or wide.max() > cfg.stacked_max_width or wide.min() < cfg.min_segment_extent:
+            continue
+        cut = _stack_cut(p, cfg)
+        if cut is None:
+            continue
+        point_region[idx[p[:, 2] >= cut]] = nxt
+        nxt += 1
+        split += 1
+    if split == 0:
+        return sp, region, which, 0
+    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
+    return (*_regroup(sp, point_region, which, concave, step), split)
+
+
+def _stack_cut(p: NDArray, cfg: SegmentConfig) -> float | None:
+    """The height (m) at which a small region's points ``p`` [k, 3] part into a body resting on a wider one,
+    or None. Heights are tried every centimetre from ``stacked_min_part`` over the foot to as far under the
+    top; at each, the narrowing is the larger of two ratios, each the widest of x and y: the extent of the
+    points above over that of those below, and of the ``stacked_slice`` above over the slice below. The
+    height of least narrowing is the cut when it is at most ``stacked_narrowing``, the centre of the points
+    above lies over those below, both sides hold ``stacked_min_points`` (``min_segment_points`` below, so
+    the lower body stays a segment) and each slice ``stacked_slice_points``."""
+    z = p[:, 2]
+    best, cut = cfg.stacked_narrowing, None
+    for h in np.arange(z.min() + cfg.stacked_min_part, z.max() - cfg.stacked_min_part + 1e-9, 0.01):
+        below, above = p[z < h], p[z >= h]
+        if len(below) < max(cfg.min_segment_points, cfg.stacked_min_points) or len(above) < cfg.stacked_min_points:
+            continue
+        under = below[below[:, 2] >= h - cfg.stacked_slice, :2]
+        over = above[above[:, 2] < h + cfg.stacked_slice, :2]
+        if min(len(under), len(over)) < cfg.stacked_slice_points:
+            continue
+        blo, bhi = below[:, :2].min(axis=0), below[:, :2].max(axis=0)
+        whole = np.ptp(above[:, :2], axis=0) / np.maximum(bhi - blo, 1e-6)
+        step = np.ptp(over, axis=0) / np.maximum(np.ptp(under, axis=0), 1e-6)
+        narrowing = float(max(whole.max(), step.max()))
+        centre = above[:, :2].mean(axis=0)
+        if narrowing <= best and np.all(centre > blo) and np.all(centre < bhi):
+            best, cut = narrowing, float(h)
+    return cut
 
 
 def _footprint(top: NDArray, cell: float) -> tuple[float, Polygon]:

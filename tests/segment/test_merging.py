@@ -485,3 +485,54 @@ def test_a_board_covers_what_is_stored_under_it_a_picture_over_a_headboard_does_
     bed_lo, bed_hi = np.array([0.0, 0.0, 0.5]), np.array([1.8, 0.5, 0.9])
     picture = _box((0.6, 0.0, 1.2), (1.2, 0.025, 1.35))
     assert _board_share(picture, bed_lo, bed_hi, CFG) < CFG.stored_board_share
+
+
+def _ring(r: float, z: float, normal_z: float = 0.0, cx: float = 0.1, cy: float = 0.1):
+    """Points [n, 3] about a circle of radius ``r`` (m) at height ``z``, one per STEP of its length, and
+    their outward normals [n, 3] tilted by ``normal_z`` up."""
+    a = np.linspace(0.0, 2 * np.pi, max(int(2 * np.pi * r / STEP), 6), endpoint=False)
+    p = np.stack([cx + r * np.cos(a), cy + r * np.sin(a), np.full(len(a), z)], 1)
+    n = np.stack([np.cos(a), np.sin(a), np.full(len(a), normal_z)], 1)
+    return p, n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _stacked(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, int]:
+    """The points [n, 3], and the region of each after ``split_stacked`` on one region holding all ``faces``."""
+    from rescene_core.segment.geometric import split_stacked
+
+    sp = _surfaces(faces)
+    region = np.ones(sp.graph.size, np.int64)
+    sp2, region2, _, split = split_stacked(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+    return sp.points, region2[sp2.graph.label], split
+
+
+def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_narrowing_up_is_not():
+    # a stack 25 cm square and 10 cm tall on a desk (its foot at 0.75 m), seen from the front and the right,
+    # with a stack 15 cm square on it: the ring of the lower one's top it leaves is 5 cm wide
+    lower = [
+        _faces((0.0, 0.0, 0.75), (0.25, 0.0, 0.825), (0, -1, 0)),
+        _faces((0.25, 0.0, 0.75), (0.25, 0.25, 0.825), (1, 0, 0)),
+    ]
+    top = _up((0.0, 0.0, 0.85), (0.25, 0.25, 0.85))
+    ring = ~np.all((top[0][:, :2] > 0.04) & (top[0][:, :2] < 0.21), axis=1)
+    lower.append((top[0][ring], top[1][ring]))
+    upper = [
+        _faces((0.05, 0.05, 0.875), (0.2, 0.05, 0.95), (0, -1, 0)),
+        _faces((0.2, 0.05, 0.875), (0.2, 0.2, 0.95), (1, 0, 0)),
+        _up((0.05, 0.05, 0.975), (0.2, 0.2, 0.975)),
+    ]
+    p, region, split = _stacked(lower + upper)
+    n_lower = sum(len(f[0]) for f in lower)
+    assert split == 1
+    assert len(np.unique(region[:n_lower])) == 1 and len(np.unique(region[n_lower:])) == 1
+    assert region[0] != region[-1]
+
+    # a table lamp: a base disc, a stem, and a shade 30 cm wide at its foot narrowing to 20 cm at its top
+    lamp = [_ring(0.08, 0.75 + k * STEP) for k in range(2)] + [_ring(0.01, 0.8 + k * STEP) for k in range(6)]
+    lamp += [_ring(0.15 - 0.05 * k / 8, 0.95 + k * STEP, 0.25) for k in range(9)]
+    _, region, split = _stacked(lamp)
+    assert split == 0 and (region == 1).all()
+
+    # the same stacks on the floor stay whole (a potted plant's foliage over its pot narrows up too)
+    _, _, split = _stacked([(f[0] - [0.0, 0.0, 0.75], f[1]) for f in lower + upper])
+    assert split == 0
