@@ -25,7 +25,8 @@
    A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
    a body stored on a shelf of a case, parted from the case's back and sides at its creases, with a board
-   of the case over it (a book stack against a bookcase's back panel).
+   of the case over it (a book stack against a bookcase's back panel). A small region resting on
+   something that narrows sharply at some height is two bodies, split there (a book stack on a stack).
    A low flat region lying on a mattress (a large top at a bed's height) joins it: a bed's pillows.
    Wall superpoints stay wall unless their colour differs from the wall's (not as a shadow's does: it
    keeps the wall's hue) or they stand proud of it, and hanging superpoints just off a wall's plane (a
