@@ -281,6 +281,9 @@ class SegmentConfig(BaseModel):
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
+    bracket_min_depth: float = 0.1
+    """A slender region hanging under a broader one joins it as its bracket when it reaches at least this far
+    out from its wall (m) (a wall shelf's bracket: 16-22 cm; a picture or a mirror lies flat on the wall)."""
     stacked_min_height: float = 0.15
     """A region whose lowest point is at least this high (m), resting on something (a potted plant's
     foliage on the floor narrows upward too), ..."""
@@ -803,6 +806,7 @@ def merge_superpoints(
         sp, region, cut_crease & ~cut_colour & ~cut_support, near_structure, cfg
     )
     region, stats["stems_joined"] = _join_stems(sp, region, cfg, planes)
+    region, stats["brackets_joined"] = _join_brackets(sp, region, cfg, planes)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
@@ -1322,6 +1326,44 @@ def _join_stems(
     return remap[region], joined
 
 
+def _join_brackets(
+    sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig, planes: list[dict[str, Any]]
+) -> tuple[NDArray[np.int64], int]:
+    """A slender region hanging on a wall (``_hangs``) and reaching ``bracket_min_depth`` out from it joins
+    the broader region it touches whose points lie over its footprint (within ``stem_margin``) from
+    ``support_band`` under its top to ``stem_gap`` over it, ``min_contacts`` of them: a wall shelf's bracket
+    under the board. ``_join_stems`` misses it when the
+    board's region already holds the other bracket, whose foot is then the board's lowest point. Slender:
+    at most ``leg_width`` one way; broader: wider than it both ways. ``region`` [s] (0: none); returns the
+    regions and how many joined."""
+    g = sp.graph
+    n = int(region.max(initial=0)) + 1
+    lo, hi = _region_bounds(g, region, n)
+    width = hi[:, :2] - lo[:, :2]
+    slender = (np.min(width, axis=1) <= cfg.leg_width) & (lo[:, 2] > cfg.support_min_height)
+    slender[0] = False
+    point_region = region[g.label]
+    remap = np.arange(n)
+    joined = 0
+    for a, b in _touching_regions(g, region, n, cfg.min_contacts, slender):
+        for low, top in ((a, b), (b, a)):
+            if not slender[low] or remap[low] != low or remap[top] != top or np.any(width[top] <= width[low]):
+                continue
+            over = np.all(
+                np.abs(sp.points[:, :2] - 0.5 * (lo[low, :2] + hi[low, :2])) <= 0.5 * width[low] + cfg.stem_margin,
+                axis=1,
+            )
+            z = sp.points[:, 2]
+            over &= (point_region == top) & (z >= hi[low, 2] - cfg.support_band) & (z <= hi[low, 2] + cfg.stem_gap)
+            if int(over.sum()) < cfg.min_contacts or not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg):
+                continue
+            if _out_from_wall(sp.points[point_region == low], planes) < cfg.bracket_min_depth:
+                continue  # flat on the wall: a picture or a mirror hung under a shelf
+            remap[low] = top
+            joined += 1
+    return remap[region], joined
+
+
 def _hangs(
     sp: ScanPoints,
     point_region: NDArray[np.int64],
@@ -1659,6 +1701,16 @@ def _nearest_wall(p: NDArray, planes: list[dict[str, Any]]) -> int:
         return 0
     gaps = [float(np.median(np.abs(p @ np.asarray(q["normal"]) + q["offset"]))) for q in walls]
     return int(walls[int(np.argmin(gaps))]["id"])
+
+
+def _out_from_wall(p: NDArray, planes: list[dict[str, Any]]) -> float:
+    """How far the points [k, 3] reach out from their nearest wall (``_nearest_wall``): the extent (m) of their
+    distances to its plane; 0 when there is no wall."""
+    wall = _nearest_wall(p, planes)
+    if wall == 0 or len(p) == 0:
+        return 0.0
+    q = next(q for q in planes if q["id"] == wall)
+    return float(np.ptp(p @ np.asarray(q["normal"])))
 
 
 def _in_shadow(colours: NDArray, wall_colour: NDArray | None, cfg: SegmentConfig) -> bool:

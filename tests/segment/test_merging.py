@@ -536,3 +536,34 @@ def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_narrowing_up_is_n
     # the same stacks on the floor stay whole (a potted plant's foliage over its pot narrows up too)
     _, _, split = _stacked([(f[0] - [0.0, 0.0, 0.75], f[1]) for f in lower + upper])
     assert split == 0
+
+
+def test_a_wall_shelfs_bracket_joins_the_board_holding_the_other_one_a_picture_under_it_does_not():
+    from rescene_core.segment.geometric import _join_brackets
+
+    # a wall shelf on the wall y = 0: a board 0.8 m wide and 0.25 m deep at 1.3-1.35 m on two brackets 22 cm
+    # deep and 10 cm tall; the board's region already holds the left bracket, so its lowest point is the
+    # bracket's foot, not the board's underside
+    board = [
+        _faces((0.0, 0.025, 1.35), (0.8, 0.25, 1.35), (0, 0, 1)),
+        _faces((0.0, 0.25, 1.3), (0.8, 0.25, 1.325), (0, 1, 0)),
+        _faces((0.0, 0.025, 1.275), (0.8, 0.25, 1.275), (0, 0, -1)),
+    ]
+    left = [
+        _faces((0.25, 0.025, 1.15), (0.25, 0.225, 1.25), (-1, 0, 0)),
+        _faces((0.3, 0.025, 1.15), (0.3, 0.225, 1.25), (1, 0, 0)),
+    ]
+    right = [
+        _faces((0.55, 0.025, 1.15), (0.55, 0.225, 1.25), (-1, 0, 0)),
+        _faces((0.6, 0.025, 1.15), (0.6, 0.225, 1.25), (1, 0, 0)),
+    ]
+    # a picture 40 cm wide flat on the wall under the shelf, its top touching the board's underside
+    picture = [_faces((0.1, 0.025, 0.9), (0.5, 0.025, 1.25), (0, 1, 0))]
+    for hung, joins in ((right, True), (picture, False)):
+        faces = board + left + hung
+        sp = _surfaces(faces)
+        n_board = len(board) + len(left)
+        region = np.where(np.arange(sp.graph.size) < n_board, 1, 2)
+        joined, count = _join_brackets(sp, region, CFG, WALL)
+        assert count == int(joins)
+        assert (joined[n_board:] == (1 if joins else 2)).all() and (joined[:n_board] == 1).all()
