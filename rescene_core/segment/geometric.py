@@ -1332,10 +1332,10 @@ def _join_brackets(
     """A slender region hanging on a wall (``_hangs``) and reaching ``bracket_min_depth`` out from it joins
     the broader region it touches whose points lie over its footprint (within ``stem_margin``) from
     ``support_band`` under its top to ``stem_gap`` over it, ``min_contacts`` of them: a wall shelf's bracket
-    under the board. ``_join_stems`` misses it when the
-    board's region already holds the other bracket, whose foot is then the board's lowest point. Slender:
-    at most ``leg_width`` one way; broader: wider than it both ways. ``region`` [s] (0: none); returns the
-    regions and how many joined."""
+    under the board. ``_join_stems`` misses it when the board's region already holds the other bracket,
+    whose foot is then the region's lowest point. Slender: at most ``leg_width`` one way and clear of
+    ``support_min_height``; broader: wider than it both ways. ``region`` [s] (0: none); returns the regions
+    and how many joined."""
     g = sp.graph
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
@@ -1343,17 +1343,15 @@ def _join_brackets(
     slender = (np.min(width, axis=1) <= cfg.leg_width) & (lo[:, 2] > cfg.support_min_height)
     slender[0] = False
     point_region = region[g.label]
+    xy, z = sp.points[:, :2], sp.points[:, 2]
     remap = np.arange(n)
     joined = 0
     for a, b in _touching_regions(g, region, n, cfg.min_contacts, slender):
         for low, top in ((a, b), (b, a)):
             if not slender[low] or remap[low] != low or remap[top] != top or np.any(width[top] <= width[low]):
                 continue
-            over = np.all(
-                np.abs(sp.points[:, :2] - 0.5 * (lo[low, :2] + hi[low, :2])) <= 0.5 * width[low] + cfg.stem_margin,
-                axis=1,
-            )
-            z = sp.points[:, 2]
+            centre = 0.5 * (lo[low, :2] + hi[low, :2])
+            over = np.all(np.abs(xy - centre) <= 0.5 * width[low] + cfg.stem_margin, axis=1)
             over &= (point_region == top) & (z >= hi[low, 2] - cfg.support_band) & (z <= hi[low, 2] + cfg.stem_gap)
             if int(over.sum()) < cfg.min_contacts or not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg):
                 continue
