@@ -299,8 +299,9 @@ class SegmentConfig(BaseModel):
     one stack, 0.8-1.0 wide each: 0.83 or more; a lamp's shade narrowing up: 0.9 or more) ..."""
     stacked_slice: float = 0.03
     """... (m) ..."""
-    stacked_min_points: int = 20
-    """... with at least this many points above and below the cut, ``stacked_slice_points`` in each slice, and
+    stacked_min_points: int = 40
+    """... with at least this many points above and below the cut (fewer above are a lid or a cap of the body
+    below: a jar's lid on the egocentric preset, 27 points), ``stacked_slice_points`` in each slice, and
     ``min_segment_points`` below it."""
     stacked_slice_points: int = 8
     """Fewest points of a slice beside the cut of a stack (see ``stacked_min_points``)."""
