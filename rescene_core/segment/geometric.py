@@ -582,7 +582,9 @@ class ScanPoints:
 
     points, normals (unit), colours (RGB in [0, 1]): [n, 3], world frame. wall: [n] id of the wall plane the
     point lies on (0: none). vertex_point: [v] the point each mesh vertex maps to (-1: none, e.g. floor).
-    edges: [e, 2] the point graph. graph: the superpoints and their contacts."""
+    edges: [e, 2] the point graph; concave, colour_step: [e] each edge's concave crease and colour step
+    (``edge_weights``), fixed with the points whatever superpoints they fall in. graph: the superpoints and
+    their contacts."""
 
     points: NDArray[np.float64]
     normals: NDArray[np.float64]
@@ -590,6 +592,8 @@ class ScanPoints:
     wall: NDArray[np.int64]
     vertex_point: NDArray[np.int64]
     edges: NDArray[np.int64]
+    concave: NDArray[np.bool_]
+    colour_step: NDArray[np.float64]
     graph: SuperpointGraph
 
 
@@ -630,7 +634,7 @@ def scan_points(
     weights, concave, step = edge_weights(P, N, C, edges, cfg.fh_colour_weight)
     label = felzenszwalb(len(P), edges, weights, cfg.fh_k if fh_k is None else fh_k, cfg.fh_min_size)
     graph = superpoint_graph(P, N, C, label, edges, concave, step)
-    return ScanPoints(P, N, C, Wl, vertex_point, edges, graph)
+    return ScanPoints(P, N, C, Wl, vertex_point, edges, concave, step, graph)
 
 
 def points_by_region(point_region: NDArray[np.int64], n: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -862,7 +866,6 @@ def split_bodies_on_tops(
     split = 0
     off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
     z = sp.points[:, 2]
-    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
     for r in range(1, int(region.max(initial=0)) + 1):
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
@@ -909,27 +912,28 @@ def split_bodies_on_tops(
             # what the region's frame holds fast above the top, or all above a top too low to carry bodies
             # of their own: a body stored on the shelf of a case
             stuck = above & (np.isin(comp, frame) | (h < cfg.support_min_height)) & (point_region == r)
-            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, ~concave, cfg):
+            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, cfg):
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
     if split == 0:
         return sp, region, which, 0
-    return (*_regroup(sp, point_region, which, concave, step), split)
+    sp, region, parent = regroup(sp, point_region)
+    return sp, region, which[parent], split
 
 
-def _regroup(
-    sp: ScanPoints, point_region: NDArray[np.int64], which: NDArray[np.int64], concave: NDArray, step: NDArray
-) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:
+def regroup(sp: ScanPoints, point_region: NDArray[np.int64]) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:
     """The scan points regrouped after regions were split across superpoints: each superpoint cut in as
-    many as the regions of its points (``point_region`` [n]), with the region [s'] and the wall [s'] (from
-    ``which`` [s]) of each new superpoint. ``concave``, ``step`` [e]: the point edges' weights
-    (``edge_weights``)."""
+    many as the regions of its points (``point_region`` [n]). Returns the scan points with the new
+    superpoint graph, the region [s'] of each new superpoint and the superpoint [s'] it was cut from (to
+    carry what each superpoint holds, such as its wall)."""
     nxt = int(point_region.max(initial=0)) + 1
     key = sp.graph.label * nxt + point_region
     uk, label = np.unique(key, return_inverse=True)
-    graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
-    return replace(sp, graph=graph), (uk % nxt).astype(np.int64), which[uk // nxt]
+    graph = superpoint_graph(
+        sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, sp.concave, sp.colour_step
+    )
+    return replace(sp, graph=graph), (uk % nxt).astype(np.int64), (uk // nxt).astype(np.int64)
 
 
 def split_stacked(
@@ -964,8 +968,8 @@ def split_stacked(
         split += 1
     if split == 0:
         return sp, region, which, 0
-    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
-    return (*_regroup(sp, point_region, which, concave, step), split)
+    sp, region, parent = regroup(sp, point_region)
+    return sp, region, which[parent], split
 
 
 def _stack_cut(p: NDArray, cfg: SegmentConfig) -> float | None:
@@ -1060,7 +1064,6 @@ def _stored_bodies(
     mine: NDArray[np.bool_],
     h: float,
     slab: NDArray[np.bool_],
-    smooth: NDArray[np.bool_],
     cfg: SegmentConfig,
 ) -> list[NDArray[np.bool_]]:
     """Bodies stored on a shelf of a case, which the point graph joins to the case's back, sides or edges
@@ -1068,9 +1071,9 @@ def _stored_bodies(
 
     ``stuck`` [n]: the region's points above the top at height ``h`` (m) whose part of the point graph
     reaches below the top or failed the test of a body on the top (a case's frame over its shelf, joined
-    to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than ``support_band`` under the top
-    (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]: the top's points; ``smooth``
-    [e]: the point edges that are not concave creases. The stuck points are parted at their creases (a body
+    to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
+    ``support_band`` under the top (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]:
+    the top's points. The stuck points are parted at their concave creases (``ScanPoints.concave``: a body
     meets the case's back and the board over it at a concave corner; its own faces meet at convex ones).
     A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
     within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). A body
@@ -1085,7 +1088,7 @@ def _stored_bodies(
         return []
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
-    k, part = _point_parts(sp.edges, stuck, smooth)
+    k, part = _point_parts(sp.edges, stuck, ~sp.concave)
     sub = part[stuck]
     p = sp.points[stuck]
     lo = np.full((k, 3), np.inf)

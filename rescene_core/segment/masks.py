@@ -20,7 +20,6 @@ from __future__ import annotations
 import heapq
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,10 +35,10 @@ from rescene_core.segment.geometric import (
     _finish,
     fuse_scan,
     points_by_region,
+    regroup,
     wall_superpoints,
 )
 from rescene_core.segment.lift import FrameCounts, frame_counts, votes_from_counts
-from rescene_core.segment.superpoints import edge_weights, superpoint_graph
 
 
 def vote_sample(sp: ScanPoints, per_superpoint: int, seed: int = 0) -> NDArray[np.int64]:
@@ -343,12 +342,8 @@ def split_straddling(
         return sp, region, 0
     point_region = region[g.label]
     point_region[pts] = target
-    key2 = g.label * n_reg + point_region
-    uk2, label = np.unique(key2, return_inverse=True)
-    new_region = (uk2 % n_reg).astype(np.int64)
-    _, concave, step = edge_weights(sp.points, sp.normals, sp.colours, sp.edges, cfg.fh_colour_weight)
-    graph = superpoint_graph(sp.points, sp.normals, sp.colours, label.astype(np.int64), sp.edges, concave, step)
-    return replace(sp, graph=graph), new_region, moved
+    sp, new_region, _ = regroup(sp, point_region)
+    return sp, new_region, moved
 
 
 def segment_masks(

@@ -153,7 +153,9 @@ def test_a_superpoint_the_masks_cut_is_split_between_its_regions():
     edges = point_graph(points, 0.04)
     _, concave, step = edge_weights(points, normals, colours, edges, 1.0)
     graph = superpoint_graph(points, normals, colours, label, edges, concave, step)
-    sp = ScanPoints(points, normals, colours, np.zeros(len(points), np.int64), np.zeros(0, np.int64), edges, graph)
+    sp = ScanPoints(
+        points, normals, colours, np.zeros(len(points), np.int64), np.zeros(0, np.int64), edges, concave, step, graph
+    )
     T, H, W = 6, 240, 320
     K = np.tile(np.array([[200.0, 0, 160], [0, 200.0, 120], [0, 0, 1]]), (T, 1, 1))
     world_from_cam = np.tile(np.eye(4), (T, 1, 1))

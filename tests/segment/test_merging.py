@@ -332,7 +332,7 @@ def _surfaces(faces: list[tuple[np.ndarray, np.ndarray]]) -> ScanPoints:
     edges = point_graph(pts, STEP * 1.75)
     _, concave, step = edge_weights(pts, nrm, col, edges, 1.0)
     g = superpoint_graph(pts, nrm, col, label, edges, concave, step)
-    return ScanPoints(pts, nrm, col, np.zeros(len(pts), np.int64), np.arange(len(pts)), edges, g)
+    return ScanPoints(pts, nrm, col, np.zeros(len(pts), np.int64), np.arange(len(pts)), edges, concave, step, g)
 
 
 def _bookcase(board_over_stack: bool) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
