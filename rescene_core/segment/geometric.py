@@ -147,6 +147,10 @@ class SegmentConfig(BaseModel):
     flush_offset: float = 0.012
     """... as is one standing this far proud of the wall plane on average (m); a region of candidates that
     stands this far proud (median) is a flush object (a TV, a mirror in its frame)..."""
+    flush_clear: float = 0.025
+    """A thin region hanging off every wall plane whose points lie this far out from the nearest wall (median,
+    m) is hung on it whichever way its normals turn (a wall clock's rim turns most of them off the wall's);
+    a stretch of the wall whose fused normals strayed off the plane lies within 0.021 m of it."""
     flush_edge_step: float = 0.2
     """... and, over a whole region on a wall, the mean colour step across its outline against the wall
     (RGB distance / sqrt 3) that makes it a picture or a poster, unless it stands ``flush_offset`` proud."""
@@ -278,6 +282,15 @@ class SegmentConfig(BaseModel):
     """... over at least this share of its footprint in 5 cm cells (a board over a stack above the cameras'
     height, seen only along its front edge, covered 37 % of the stack; a picture hung over a bed's
     headboard and pillows, 1 %)."""
+    frame_column_cell: float = 0.025
+    """Side (m) of the square columns over a case's shelf that are tested for its frame (one
+    ``superpoint_voxel``)..."""
+    frame_column_bin: float = 0.05
+    """... a column with points in every bin of this height (m)..."""
+    frame_column_rise: float = 0.3
+    """... from the shelf to this far over it (m) is a side or back panel, which bodies stored on the shelf
+    are parted from (a stack of two to five books rises under 0.25 m and leaves a gap under the board over
+    it; a body filling a column this tall loses that column to the frame)."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -1073,8 +1086,10 @@ def _stored_bodies(
     reaches below the top or failed the test of a body on the top (a case's frame over its shelf, joined
     to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
     ``support_band`` under the top (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]:
-    the top's points. The stuck points are parted at their concave creases (``ScanPoints.concave``: a body
-    meets the case's back and the board over it at a concave corner; its own faces meet at convex ones).
+    the top's points. The stuck points in columns of the case's frame (``_frame_columns``: its sides and
+    back) are left to the case, and the rest parted at their concave creases (``ScanPoints.concave``: a
+    body meets the case's back and the board over it at a concave corner; its own faces meet at convex
+    ones).
     A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
     within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). A body
     is stored when it has ``min_segment_points`` points, its centre lies over the top's seen bounds, the
@@ -1083,8 +1098,10 @@ def _stored_bodies(
     bookcase's) and has a board of the region over ``stored_board_share`` of its footprint
     (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's own). Returns the
     points [n] of each body."""
-    n_pts = int(stuck.sum())
-    if n_pts < cfg.min_segment_points:
+    # the case's sides and back rise unbroken from the shelf: taken off the stuck points, they no longer
+    # join the bodies they touch (a stack flush with a side panel or against the back)
+    stuck = stuck & ~_frame_columns(sp.points, stuck, h, cfg)
+    if int(stuck.sum()) < cfg.min_segment_points:
         return []
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
@@ -1144,6 +1161,29 @@ def _stored_bodies(
         taken[body] = True
         bodies.append(points)
     return bodies
+
+
+def _frame_columns(points: NDArray, stuck: NDArray[np.bool_], h: float, cfg: SegmentConfig) -> NDArray[np.bool_]:
+    """Which of the ``stuck`` points [n] (``points`` [n, 3], m) stand in a column of the case's frame over its
+    top at height ``h`` (m): a ``frame_column_cell`` square column whose points fill every
+    ``frame_column_bin`` of height from ``top_clearance`` over the top to ``frame_column_rise`` (a side or
+    back panel rising unbroken past the shelf's bodies; a stack's column breaks between its top and the
+    board over it)."""
+    idx = np.flatnonzero(stuck)
+    frame = np.zeros(len(points), bool)
+    if len(idx) == 0:
+        return frame
+    q = points[idx]
+    ij = np.floor(q[:, :2] / cfg.frame_column_cell).astype(np.int64)
+    ij -= ij.min(axis=0)
+    _, column = np.unique(ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1], return_inverse=True)
+    bins = int(round(cfg.frame_column_rise / cfg.frame_column_bin))
+    level = np.floor((q[:, 2] - h - cfg.top_clearance) / cfg.frame_column_bin).astype(np.int64)
+    within = (level >= 0) & (level < bins)
+    filled = np.zeros((int(column.max()) + 1, bins), bool)
+    filled[column[within], level[within]] = True
+    frame[idx] = filled.all(axis=1)[column]
+    return frame
 
 
 def _sides_beyond(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) -> NDArray[np.bool_]:
@@ -1733,6 +1773,16 @@ def _faces_wall(p: NDArray, normals: NDArray, planes: list[dict[str, Any]], cfg:
     return bool((np.abs(normals @ n) > np.cos(np.radians(cfg.plane_normal_deg))).mean() >= 0.5)
 
 
+def _stands_off_wall(
+    p: NDArray, normals: NDArray, dist: NDArray, planes: list[dict[str, Any]], cfg: SegmentConfig
+) -> bool:
+    """Whether a thin region hanging off every wall plane (points ``p`` [k, 3] with their normals [k, 3], each
+    ``dist`` [k] (m) from the nearest structure plane) stands off its wall as a thing hung on it: its median
+    distance is ``flush_clear``, or ``flush_offset`` and it faces the room as the wall does (``_faces_wall``)."""
+    out = float(np.median(dist))
+    return out >= cfg.flush_clear or (out >= cfg.flush_offset and _faces_wall(p, normals, planes, cfg))
+
+
 def _rim_step(g: SuperpointGraph, rim: NDArray[np.bool_]) -> float:
     """Mean colour step (RGB distance / sqrt 3) over the graph edges of the contacts ``rim`` [p]."""
     return float((g.step[rim] * g.contacts[rim]).sum() / max(int(g.contacts[rim].sum()), 1))
@@ -1807,11 +1857,11 @@ def _filter_regions(
             # a thin region hanging on a wall off its plane (a wall clock, a mirror's frame): an object when
             # the masks see it apart, when its outline steps in colour, or when it stands proud of the wall
             # and faces the room as the wall does (a stretch of the wall whose fused normals stray off the
-            # plane's, and so stayed off it, lies in it and faces every way)
+            # plane's, and so stayed off it, lies in it and faces every way) or stands clear of it
             edge = _rim_step(g, (inside ^ outside) & (rim_wall > 0))
             near = paint.get(_nearest_wall(p, planes))
             outline = edge >= cfg.flush_edge_step and not _in_shadow(sp.colours[idx], near, cfg)
-            proud = float(np.median(dist)) >= cfg.flush_offset and _faces_wall(p, sp.normals[idx], planes, cfg)
+            proud = _stands_off_wall(p, sp.normals[idx], dist, planes, cfg)
             if flush_by_masks or outline or proud:
                 sliver = False
         if sliver:

@@ -116,6 +116,25 @@ def test_a_hanging_region_faces_the_room_as_its_wall_does():
     assert not _faces_wall(face, np.tile([1.0, 0.0, 0.0], (len(face), 1)), planes[:1], CFG)  # no wall
 
 
+def test_a_region_hanging_clear_of_its_wall_stands_off_it_whichever_way_it_faces_a_stray_stretch_does_not():
+    from rescene_core.segment.geometric import _stands_off_wall
+
+    planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0}]
+    rng = np.random.default_rng(1)
+    # a clock's rim 4 cm out from the wall x = 0: its normals turn radially, none along the wall's
+    angle = rng.uniform(0, 2 * np.pi, 200)
+    rim = np.c_[rng.uniform(0.02, 0.06, 200), 1.2 + 0.15 * np.cos(angle), 2.0 + 0.15 * np.sin(angle)]
+    radial = np.c_[np.zeros(200), np.cos(angle), np.sin(angle)]
+    assert _stands_off_wall(rim, radial, rim[:, 0], planes, CFG)
+    # a stretch of the wall 1.5 cm off its plane, its fused normals wandering every way
+    stretch = np.c_[np.full(200, 0.015), rng.uniform(1.0, 1.5, 200), rng.uniform(1.5, 2.0, 200)]
+    stray = rng.normal(size=(200, 3))
+    stray /= np.linalg.norm(stray, axis=1, keepdims=True)
+    assert not _stands_off_wall(stretch, stray, stretch[:, 0], planes, CFG)
+    # the same stretch facing the room as the wall does is a flush object (a mirror's glass)
+    assert _stands_off_wall(stretch, np.tile([1.0, 0.0, 0.0], (200, 1)), stretch[:, 0], planes, CFG)
+
+
 def test_upright_books_under_a_shelf_board_are_stored_a_flat_stack_or_a_monitor_is_not():
     from rescene_core.segment.geometric import SegmentConfig, _stored_upright
 
@@ -567,3 +586,21 @@ def test_a_wall_shelfs_bracket_joins_the_board_holding_the_other_one_a_picture_u
         joined, count = _join_brackets(sp, region, CFG, WALL)
         assert count == int(joins)
         assert (joined[n_board:] == (1 if joins else 2)).all() and (joined[:n_board] == 1).all()
+
+
+def test_a_case_side_rising_unbroken_from_its_shelf_is_its_frame_a_stack_under_the_next_board_is_not():
+    from rescene_core.segment.geometric import _frame_columns
+
+    h = 0.5  # the shelf's top
+    side = _box((0.0, 0.0, h + 0.02), (0.0, 0.3, h + 0.9))  # a side panel's inner face, on past the next board
+    stack = _box((0.05, 0.05, h + 0.02), (0.25, 0.25, h + 0.2))  # a stack 20 cm tall ...
+    board = _box((0.0, 0.0, h + 0.36), (0.6, 0.3, h + 0.36))  # ... under the next board, 16 cm clear of it
+    tall = _box((0.4, 0.05, h + 0.02), (0.5, 0.15, h + 0.34))  # a body filling its column to the board
+    points = np.concatenate([side, stack, board, tall])
+    kind = np.repeat([0, 1, 2, 3], [len(side), len(stack), len(board), len(tall)])
+    frame = _frame_columns(points, np.ones(len(points), bool), h, CFG)
+    assert frame[kind == 0].all()
+    assert not frame[kind == 1].any()
+    assert frame[kind == 3].all()  # rising past the rise, it is taken as the frame's: the rule's known limit
+    only_stack = kind == 1
+    assert not _frame_columns(points, only_stack, h, CFG).any()  # only the stuck points are looked at
