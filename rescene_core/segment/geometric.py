@@ -290,7 +290,18 @@ class SegmentConfig(BaseModel):
     frame_column_rise: float = 0.3
     """... from the shelf to this far over it (m) is a side or back panel, which bodies stored on the shelf
     are parted from (a stack of two to five books rises under 0.25 m and leaves a gap under the board over
-    it; a body filling a column this tall loses that column to the frame)."""
+    it; a body filling a column this tall loses that column to the frame)..."""
+    frame_column_least: int = 3
+    """... or whose bins are filled from its lowest point up to that height without a break, over this many
+    bins (a panel seen only above a stack standing in front of it)."""
+    layer_colour_step: float = 0.1
+    """A body taken as upright (``stored_cover_gap``) whose point edges stepping this much in colour
+    (RGB distance / sqrt 3: the seams between books) ..."""
+    layer_share: float = 0.4
+    """... run more up than across, this share of them or more, lies in layers (books lying flat, a stack on
+    a stack: 0.53-0.59 on cluttered 206-207; rows of upright books 0.07-0.26) and is stored after all..."""
+    layer_min_edges: int = 20
+    """... when there are this many such edges."""
     stored_cover_gap: float = 0.3
     """A body resting on a shelf inside a larger region, taller than deep, with a board of the larger one at
     most this far over it is stored in it (a row of upright books in a bookcase) and joins it (m)."""
@@ -1153,11 +1164,11 @@ def _stored_bodies(
             or not _held_by_top(blo, bhi, top, cfg, least=cfg.stored_top_sides)
         ):
             continue  # beside the shelf, the shelf seen nowhere beyond it, or spanned both ways
-        if _stored_upright(case, blo, bhi, cfg):
+        points = np.isin(part, body)
+        if _stored_upright(case, blo, bhi, cfg) and not _in_layers(sp, points, cfg):
             continue  # books standing in a row: the bookcase's own
         if _board_share(case, blo, bhi, cfg) < cfg.stored_board_share:
             continue  # nothing of the case over it: a cushion against a sofa's back
-        points = np.isin(part, body)
         taken[body] = True
         bodies.append(points)
     return bodies
@@ -1166,9 +1177,10 @@ def _stored_bodies(
 def _frame_columns(points: NDArray, stuck: NDArray[np.bool_], h: float, cfg: SegmentConfig) -> NDArray[np.bool_]:
     """Which of the ``stuck`` points [n] (``points`` [n, 3], m) stand in a column of the case's frame over its
     top at height ``h`` (m): a ``frame_column_cell`` square column whose points fill every
-    ``frame_column_bin`` of height from ``top_clearance`` over the top to ``frame_column_rise`` (a side or
-    back panel rising unbroken past the shelf's bodies; a stack's column breaks between its top and the
-    board over it)."""
+    ``frame_column_bin`` of height, from its lowest point over ``top_clearance`` above the top up to
+    ``frame_column_rise`` over the top, ``frame_column_least`` bins at least (a side or back panel rises
+    unbroken past the shelf's bodies, seen from the shelf or only above what stands in front of it; a
+    stack's column breaks between its top and the board over it)."""
     idx = np.flatnonzero(stuck)
     frame = np.zeros(len(points), bool)
     if len(idx) == 0:
@@ -1182,7 +1194,11 @@ def _frame_columns(points: NDArray, stuck: NDArray[np.bool_], h: float, cfg: Seg
     within = (level >= 0) & (level < bins)
     filled = np.zeros((int(column.max()) + 1, bins), bool)
     filled[column[within], level[within]] = True
-    frame[idx] = filled.all(axis=1)[column]
+    # the bins filled without a break down from the top one, and the lowest bin filled at all: a panel seen
+    # only above what stands in front of it runs unbroken from there
+    run = np.cumprod(filled[:, ::-1], axis=1).sum(axis=1)
+    first = np.argmax(filled, axis=1)
+    frame[idx] = ((run == bins - first) & (run >= cfg.frame_column_least))[column]
     return frame
 
 
@@ -1527,6 +1543,18 @@ def _board_share(case: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) ->
     over &= (case[:, 2] > hi[2]) & (case[:, 2] <= hi[2] + cfg.stored_board_reach)
     ij = np.minimum(((case[over, :2] - lo[:2]) / cell).astype(np.int64), shape - 1)
     return len(np.unique(ij[:, 0] * shape[1] + ij[:, 1])) / float(np.prod(shape))
+
+
+def _in_layers(sp: ScanPoints, body: NDArray[np.bool_], cfg: SegmentConfig) -> bool:
+    """Whether a body's points ``body`` [n] change colour across horizontal seams: ``layer_share`` or more of
+    the point edges within it that step ``layer_colour_step`` in colour run more up than across, over
+    ``layer_min_edges`` of them (books lying flat; the seams of books standing upright are vertical)."""
+    i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
+    seam = body[i0] & body[i1] & (sp.colour_step >= cfg.layer_colour_step)
+    if int(seam.sum()) < cfg.layer_min_edges:
+        return False
+    d = sp.points[i1[seam]] - sp.points[i0[seam]]
+    return bool((np.abs(d[:, 2]) > np.linalg.norm(d[:, :2], axis=1)).mean() >= cfg.layer_share)
 
 
 def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:

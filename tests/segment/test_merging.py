@@ -596,11 +596,36 @@ def test_a_case_side_rising_unbroken_from_its_shelf_is_its_frame_a_stack_under_t
     stack = _box((0.05, 0.05, h + 0.02), (0.25, 0.25, h + 0.2))  # a stack 20 cm tall ...
     board = _box((0.0, 0.0, h + 0.36), (0.6, 0.3, h + 0.36))  # ... under the next board, 16 cm clear of it
     tall = _box((0.4, 0.05, h + 0.02), (0.5, 0.15, h + 0.34))  # a body filling its column to the board
-    points = np.concatenate([side, stack, board, tall])
-    kind = np.repeat([0, 1, 2, 3], [len(side), len(stack), len(board), len(tall)])
+    back = _box((0.6, 0.0, h + 0.17), (0.8, 0.0, h + 0.9))  # a back panel seen only over what stands before it
+    stub = _box((0.9, 0.1, h + 0.26), (0.95, 0.15, h + 0.3))  # a body's top just under the height tested
+    points = np.concatenate([side, stack, board, tall, back, stub])
+    kind = np.repeat(np.arange(6), [len(side), len(stack), len(board), len(tall), len(back), len(stub)])
     frame = _frame_columns(points, np.ones(len(points), bool), h, CFG)
-    assert frame[kind == 0].all()
-    assert not frame[kind == 1].any()
+    assert frame[kind == 0].all() and frame[kind == 4].all()
+    assert not frame[kind == 1].any() and not frame[kind == 5].any()
     assert frame[kind == 3].all()  # rising past the rise, it is taken as the frame's: the rule's known limit
     only_stack = kind == 1
     assert not _frame_columns(points, only_stack, h, CFG).any()  # only the stuck points are looked at
+
+
+def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_across_vertical_ones():
+    from rescene_core.segment.geometric import _in_layers
+
+    rng = np.random.default_rng(2)
+    colours = rng.uniform(0.1, 0.9, (12, 3))
+
+    def books(flat: bool) -> ScanPoints:
+        # the front face (y = 0) of 6 books 4 cm thick, 24 cm wide and 24 cm tall all told, each its own colour
+        face = _box((0.0, 0.0, 0.0), (0.24, 0.0, 0.24))
+        nrm = np.tile([0.0, -1.0, 0.0], (len(face), 1))
+        col = colours[np.minimum((face[:, 2 if flat else 0] / 0.04).astype(int), 5)]
+        edges = point_graph(face, STEP * 1.75)
+        _, concave, step = edge_weights(face, nrm, col, edges, 1.0)
+        label = np.zeros(len(face), np.int64)
+        g = superpoint_graph(face, nrm, col, label, edges, concave, step)
+        return ScanPoints(face, nrm, col, label, np.arange(len(face)), edges, concave, step, g)
+
+    stack, row = books(flat=True), books(flat=False)
+    assert _in_layers(stack, np.ones(len(stack.points), bool), CFG)
+    assert not _in_layers(row, np.ones(len(row.points), bool), CFG)
+    assert not _in_layers(stack, stack.points[:, 2] < 0.035, CFG)  # one book: no seams to count
