@@ -299,7 +299,7 @@ class SegmentConfig(BaseModel):
     (RGB distance / sqrt 3: the seams between books) ..."""
     layer_share: float = 0.4
     """... run more up than across, this share of them or more, lies in layers (books lying flat, a stack on
-    a stack: 0.53-0.59 on cluttered 206-207; rows of upright books 0.07-0.26) and is stored after all..."""
+    a stack: 0.53-0.59 on cluttered 206-207; rows of upright books 0.07-0.22) and is stored after all..."""
     layer_min_edges: int = 20
     """... when there are this many such edges."""
     stored_cover_gap: float = 0.3
