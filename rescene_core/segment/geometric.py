@@ -147,10 +147,6 @@ class SegmentConfig(BaseModel):
     flush_offset: float = 0.012
     """... as is one standing this far proud of the wall plane on average (m); a region of candidates that
     stands this far proud (median) is a flush object (a TV, a mirror in its frame)..."""
-    flush_clear: float = 0.025
-    """A thin region hanging off every wall plane whose points lie this far out from the nearest wall (median,
-    m) is hung on it whichever way its normals turn (a wall clock's rim turns most of them off the wall's);
-    a stretch of the wall whose fused normals strayed off the plane lies within 0.021 m of it."""
     flush_edge_step: float = 0.2
     """... and, over a whole region on a wall, the mean colour step across its outline against the wall
     (RGB distance / sqrt 3) that makes it a picture or a poster, unless it stands ``flush_offset`` proud."""
@@ -1801,16 +1797,6 @@ def _faces_wall(p: NDArray, normals: NDArray, planes: list[dict[str, Any]], cfg:
     return bool((np.abs(normals @ n) > np.cos(np.radians(cfg.plane_normal_deg))).mean() >= 0.5)
 
 
-def _stands_off_wall(
-    p: NDArray, normals: NDArray, dist: NDArray, planes: list[dict[str, Any]], cfg: SegmentConfig
-) -> bool:
-    """Whether a thin region hanging off every wall plane (points ``p`` [k, 3] with their normals [k, 3], each
-    ``dist`` [k] (m) from the nearest structure plane) stands off its wall as a thing hung on it: its median
-    distance is ``flush_clear``, or ``flush_offset`` and it faces the room as the wall does (``_faces_wall``)."""
-    out = float(np.median(dist))
-    return out >= cfg.flush_clear or (out >= cfg.flush_offset and _faces_wall(p, normals, planes, cfg))
-
-
 def _rim_step(g: SuperpointGraph, rim: NDArray[np.bool_]) -> float:
     """Mean colour step (RGB distance / sqrt 3) over the graph edges of the contacts ``rim`` [p]."""
     return float((g.step[rim] * g.contacts[rim]).sum() / max(int(g.contacts[rim].sum()), 1))
@@ -1885,11 +1871,11 @@ def _filter_regions(
             # a thin region hanging on a wall off its plane (a wall clock, a mirror's frame): an object when
             # the masks see it apart, when its outline steps in colour, or when it stands proud of the wall
             # and faces the room as the wall does (a stretch of the wall whose fused normals stray off the
-            # plane's, and so stayed off it, lies in it and faces every way) or stands clear of it
+            # plane's, and so stayed off it, lies in it and faces every way)
             edge = _rim_step(g, (inside ^ outside) & (rim_wall > 0))
             near = paint.get(_nearest_wall(p, planes))
             outline = edge >= cfg.flush_edge_step and not _in_shadow(sp.colours[idx], near, cfg)
-            proud = _stands_off_wall(p, sp.normals[idx], dist, planes, cfg)
+            proud = float(np.median(dist)) >= cfg.flush_offset and _faces_wall(p, sp.normals[idx], planes, cfg)
             if flush_by_masks or outline or proud:
                 sliver = False
         if sliver:

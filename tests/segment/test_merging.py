@@ -116,25 +116,6 @@ def test_a_hanging_region_faces_the_room_as_its_wall_does():
     assert not _faces_wall(face, np.tile([1.0, 0.0, 0.0], (len(face), 1)), planes[:1], CFG)  # no wall
 
 
-def test_a_region_hanging_clear_of_its_wall_stands_off_it_whichever_way_it_faces_a_stray_stretch_does_not():
-    from rescene_core.segment.geometric import _stands_off_wall
-
-    planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [1.0, 0.0, 0.0], "offset": 0.0}]
-    rng = np.random.default_rng(1)
-    # a clock's rim 4 cm out from the wall x = 0: its normals turn radially, none along the wall's
-    angle = rng.uniform(0, 2 * np.pi, 200)
-    rim = np.c_[rng.uniform(0.02, 0.06, 200), 1.2 + 0.15 * np.cos(angle), 2.0 + 0.15 * np.sin(angle)]
-    radial = np.c_[np.zeros(200), np.cos(angle), np.sin(angle)]
-    assert _stands_off_wall(rim, radial, rim[:, 0], planes, CFG)
-    # a stretch of the wall 1.5 cm off its plane, its fused normals wandering every way
-    stretch = np.c_[np.full(200, 0.015), rng.uniform(1.0, 1.5, 200), rng.uniform(1.5, 2.0, 200)]
-    stray = rng.normal(size=(200, 3))
-    stray /= np.linalg.norm(stray, axis=1, keepdims=True)
-    assert not _stands_off_wall(stretch, stray, stretch[:, 0], planes, CFG)
-    # the same stretch facing the room as the wall does is a flush object (a mirror's glass)
-    assert _stands_off_wall(stretch, np.tile([1.0, 0.0, 0.0], (200, 1)), stretch[:, 0], planes, CFG)
-
-
 def test_upright_books_under_a_shelf_board_are_stored_a_flat_stack_or_a_monitor_is_not():
     from rescene_core.segment.geometric import SegmentConfig, _stored_upright
 
