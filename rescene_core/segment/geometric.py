@@ -278,11 +278,9 @@ class SegmentConfig(BaseModel):
     """... over at least this share of its footprint in 5 cm cells (a board over a stack above the cameras'
     height, seen only along its front edge, covered 37 % of the stack; a picture hung over a bed's
     headboard and pillows, 1 %)."""
-    frame_column_cell: float = 0.025
-    """Side (m) of the square columns over a case's shelf that are tested for its frame (one
-    ``superpoint_voxel``)..."""
     frame_column_bin: float = 0.05
-    """... a column with points in every bin of this height (m)..."""
+    """A column over a case's shelf, one ``superpoint_voxel`` square, with points in every bin of this height
+    (m)..."""
     frame_column_rise: float = 0.3
     """... from the shelf to this far over it (m) is a side or back panel, which bodies stored on the shelf
     are parted from (a stack of two to five books rises under 0.25 m and leaves a gap under the board over
@@ -1172,7 +1170,7 @@ def _stored_bodies(
 
 def _frame_columns(points: NDArray, stuck: NDArray[np.bool_], h: float, cfg: SegmentConfig) -> NDArray[np.bool_]:
     """Which of the ``stuck`` points [n] (``points`` [n, 3], m) stand in a column of the case's frame over its
-    top at height ``h`` (m): a ``frame_column_cell`` square column whose points fill every
+    top at height ``h`` (m): a ``superpoint_voxel`` square column whose points fill every
     ``frame_column_bin`` of height, from its lowest point over ``top_clearance`` above the top up to
     ``frame_column_rise`` over the top, ``frame_column_least`` bins at least (a side or back panel rises
     unbroken past the shelf's bodies, seen from the shelf or only above what stands in front of it; a
@@ -1182,7 +1180,7 @@ def _frame_columns(points: NDArray, stuck: NDArray[np.bool_], h: float, cfg: Seg
     if len(idx) == 0:
         return frame
     q = points[idx]
-    ij = np.floor(q[:, :2] / cfg.frame_column_cell).astype(np.int64)
+    ij = np.floor(q[:, :2] / cfg.superpoint_voxel).astype(np.int64)
     ij -= ij.min(axis=0)
     _, column = np.unique(ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1], return_inverse=True)
     bins = int(round(cfg.frame_column_rise / cfg.frame_column_bin))
