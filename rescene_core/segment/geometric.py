@@ -33,7 +33,9 @@
    clock's rim and face) count with them; such a region hanging clear of the floor and ceiling with a
    sharp outline (not a shadow's) or a depth step is a flush object (a picture, a mirror, a clock, a TV),
    its pieces parted by colour joined when one lies within the other (a canvas in its frame). Regions
-   too small, too large, upright sheets as tall as a wall and slivers of the structure are dropped.
+   too small, too large, upright sheets as tall as a wall and slivers of the structure are dropped; a
+   region that would be dropped as a stretch of wall first gives back what stands well out of the wall's
+   plane (a desk and its monitor joined to a stretch of wall the plane did not claim).
 5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
@@ -332,6 +334,10 @@ class SegmentConfig(BaseModel):
     """An upright sheet at least this tall is wall (a stretch the plane search missed, a door), not an object (m)."""
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
+    stretch_out: float = 0.1
+    """A region as tall as a wall and a sliver of the structure (a stretch of wall whose fused normals stray
+    too far off its plane for the plane to claim it) gives back its parts lying at least this far off every
+    structure plane (m), past the 5-7 cm the fused surface of a wall wanders: what stands against it."""
     seed: int = 0
     """Seed of Open3D's RANSAC and of the choice of voting points."""
     vote_points: int = 40
@@ -830,6 +836,7 @@ def merge_superpoints(
     )
     region, stats["stems_joined"] = _join_stems(sp, region, cfg, planes)
     region, stats["brackets_joined"] = _join_brackets(sp, region, cfg, planes)
+    sp, region, which, stats["parted_from_wall"] = part_from_wall_stretch(sp, region, which, planes, cfg)
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
@@ -938,6 +945,50 @@ def split_bodies_on_tops(
         return sp, region, which, 0
     sp, region, parent = regroup(sp, point_region)
     return sp, region, which[parent], split
+
+
+def part_from_wall_stretch(
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    which: NDArray[np.int64],
+    planes: list[dict[str, Any]],
+    cfg: SegmentConfig,
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
+    """What stands against a stretch of wall its plane did not claim, parted from it. The stretch (a region at
+    least ``wall_piece_height`` tall with ``structure_sliver_fraction`` of its points within
+    ``structure_band`` of the structure planes) would be dropped whole as a sliver of the wall, and with it
+    the desk joined to it; each connected part of its points at least ``stretch_out`` off every plane,
+    with ``min_segment_points`` points and ``min_segment_extent`` long, becomes a region of its own. The
+    part's points nearer the wall stay with the stretch. ``region`` [s] (0: none), ``which`` [s]: the wall
+    of each superpoint (0: none). Returns the scan points with the new superpoint graph, the region and
+    wall of each new superpoint, and how many parts were parted."""
+    point_region = region[sp.graph.label].copy()
+    n = int(region.max(initial=0)) + 1
+    order, bounds = points_by_region(point_region, n)
+    nxt, parted = n, 0
+    for r in range(1, n):
+        idx = order[bounds[r] : bounds[r + 1]]
+        if len(idx) < cfg.min_segment_points or np.ptp(sp.points[idx, 2]) < cfg.wall_piece_height:
+            continue
+        dist = _structure_distance(sp.points[idx], planes)
+        if (dist < cfg.structure_band).mean() < cfg.structure_sliver_fraction:
+            continue
+        off = np.zeros(len(sp.points), bool)
+        off[idx[dist >= cfg.stretch_out]] = True
+        if off.sum() < cfg.min_segment_points:
+            continue
+        _, part = _point_parts(sp.edges, off)
+        ids, counts = np.unique(part[off], return_counts=True)
+        for c in ids[counts >= cfg.min_segment_points].tolist():
+            mine = part == c
+            if float(np.ptp(sp.points[mine], axis=0).max()) >= cfg.min_segment_extent:
+                point_region[mine] = nxt
+                nxt += 1
+                parted += 1
+    if parted == 0:
+        return sp, region, which, 0
+    sp, region, parent = regroup(sp, point_region)
+    return sp, region, which[parent], parted
 
 
 def regroup(sp: ScanPoints, point_region: NDArray[np.int64]) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:

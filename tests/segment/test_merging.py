@@ -610,3 +610,30 @@ def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_a
     assert _in_layers(stack, np.ones(len(stack.points), bool), CFG)
     assert not _in_layers(row, np.ones(len(row.points), bool), CFG)
     assert not _in_layers(stack, stack.points[:, 2] < 0.035, CFG)  # one book: no seams to count
+
+
+def test_a_desk_joined_to_a_stretch_of_wall_the_plane_left_is_parted_from_it_a_bulge_of_the_wall_is_not():
+    from rescene_core.segment.geometric import part_from_wall_stretch
+
+    def scan(wall_height: float) -> tuple[ScanPoints, np.ndarray]:
+        # a stretch of the wall y = 0 fused 3 cm in front of its plane, a bulge of it 8 cm out, and a desk
+        # (top and front, 0.65 m deep) standing against it, all one region
+        stretch = _faces((0.0, 0.03, 0.0), (3.0, 0.03, wall_height), (0.0, 1.0, 0.0))
+        bulge = _faces((2.5, 0.08, 1.2), (2.8, 0.08, 1.5), (0.0, 1.0, 0.0))
+        top = _faces((1.0, 0.05, 0.75), (2.2, 0.7, 0.75), (0.0, 0.0, 1.0))
+        front = _faces((1.0, 0.7, 0.0), (2.2, 0.7, 0.725), (0.0, 1.0, 0.0))
+        sp = _surfaces([stretch, bulge, top, front])
+        return sp, np.ones(sp.graph.size, np.int64)
+
+    sp, region = scan(2.4)
+    which = np.zeros(len(region), np.int64)
+    sp2, region2, which2, parted = part_from_wall_stretch(sp, region, which, WALL, CFG)
+    assert parted == 1
+    point_region = region2[sp2.graph.label]
+    desk = (sp2.points[:, 1] >= CFG.stretch_out) & (sp2.points[:, 2] >= CFG.stretch_out)
+    assert len(np.unique(point_region[desk])) == 1 and point_region[desk][0] != 1
+    assert (point_region[~desk] == 1).all()  # the stretch, its bulge and the desk's edge by the wall stay
+    assert len(which2) == len(region2)
+    # a region lower than a wall is no stretch of it: left whole (the sliver test judges it later)
+    sp, region = scan(1.6)
+    assert part_from_wall_stretch(sp, region, np.zeros(len(region), np.int64), WALL, CFG)[3] == 0
