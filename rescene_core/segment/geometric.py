@@ -35,7 +35,9 @@
    its pieces parted by colour joined when one lies within the other (a canvas in its frame). Regions
    too small, too large, upright sheets as tall as a wall and slivers of the structure are dropped; a
    region that would be dropped as a stretch of wall first gives back what stands well out of the wall's
-   plane (a desk and its monitor joined to a stretch of wall the plane did not claim).
+   plane (a desk and its monitor joined to a stretch of wall the plane did not claim), and a region
+   reaching well out of its wall gives up the points of the wall's paint or its shadow that superpoints
+   holding both took into it (the wall under a wall shelf, fused with its brackets).
 5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
@@ -334,10 +336,11 @@ class SegmentConfig(BaseModel):
     """An upright sheet at least this tall is wall (a stretch the plane search missed, a door), not an object (m)."""
     structure_sliver_fraction: float = 0.8
     """Share of a cluster's points within ``structure_band`` of a plane that makes it a sliver."""
-    stretch_out: float = 0.1
-    """A region as tall as a wall and a sliver of the structure (a stretch of wall whose fused normals stray
-    too far off its plane for the plane to claim it) gives back its parts lying at least this far off every
-    structure plane (m), past the 5-7 cm the fused surface of a wall wanders: what stands against it."""
+    stands_out: float = 0.1
+    """A part at least this far off the structure planes stands out of them (m), past the 5-7 cm the fused
+    surface of a wall wanders: what stands against a stretch of wall the plane did not claim
+    (``part_from_wall_stretch``), and a region reaching this far out of its wall is no flush object
+    (``take_off_wall_paint``)."""
     seed: int = 0
     """Seed of Open3D's RANSAC and of the choice of voting points."""
     vote_points: int = 40
@@ -840,6 +843,7 @@ def merge_superpoints(
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
+    sp, region, which, stats["wall_points_taken_off"] = take_off_wall_paint(sp, region, which, planes, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
     stats.update(drop)
     return sp, region, which, stats
@@ -957,7 +961,7 @@ def part_from_wall_stretch(
     """What stands against a stretch of wall its plane did not claim, parted from it. The stretch (a region at
     least ``wall_piece_height`` tall with ``structure_sliver_fraction`` of its points within
     ``structure_band`` of the structure planes) would be dropped whole as a sliver of the wall, and with it
-    the desk joined to it; each connected part of its points at least ``stretch_out`` off every plane,
+    the desk joined to it; each connected part of its points at least ``stands_out`` off every plane,
     with ``min_segment_points`` points and ``min_segment_extent`` long, becomes a region of its own. The
     part's points nearer the wall stay with the stretch. ``region`` [s] (0: none), ``which`` [s]: the wall
     of each superpoint (0: none). Returns the scan points with the new superpoint graph, the region and
@@ -974,7 +978,7 @@ def part_from_wall_stretch(
         if (dist < cfg.structure_band).mean() < cfg.structure_sliver_fraction:
             continue
         off = np.zeros(len(sp.points), bool)
-        off[idx[dist >= cfg.stretch_out]] = True
+        off[idx[dist >= cfg.stands_out]] = True
         if off.sum() < cfg.min_segment_points:
             continue
         _, part = _point_parts(sp.edges, off)
@@ -989,6 +993,46 @@ def part_from_wall_stretch(
         return sp, region, which, 0
     sp, region, parent = regroup(sp, point_region)
     return sp, region, which[parent], parted
+
+
+def take_off_wall_paint(
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    which: NDArray[np.int64],
+    planes: list[dict[str, Any]],
+    cfg: SegmentConfig,
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
+    """An object's region with the points of the wall's paint taken off. A superpoint holding both wall and
+    free points (the wall in a wall shelf's shadow fused with the shelf's brackets) is the wall's only when
+    most of its points are, so an object's region takes in wall points with it. In a region under half on
+    walls (no flush object), the points on a wall's plane (``ScanPoints.wall``) of its colour (a step under
+    ``flush_colour_step``) or of its colour darkened (``_shaded``: a shadow) are taken off, as
+    ``wall_superpoints`` judges a superpoint. ``region`` [s] (0: none), ``which`` [s]: the wall of each
+    superpoint (0: none). Returns the scan points with the new superpoint graph, the region and wall of
+    each new superpoint, and how many points were taken off."""
+    point_region = region[sp.graph.label].copy()
+    n = int(region.max(initial=0)) + 1
+    paint = wall_colours(sp)
+    order, bounds = points_by_region(point_region, n)
+    taken = 0
+    for r in range(1, n):
+        idx = order[bounds[r] : bounds[r + 1]]
+        on = idx[sp.wall[idx] > 0]
+        if len(on) == 0 or 2 * len(on) >= len(idx):
+            continue
+        if _out_from_wall(sp.points[idx], planes) < cfg.stands_out:
+            continue  # hung flat on the wall (a clock, its face of the wall's white): the flush tests judge it
+        for w in np.unique(sp.wall[on]).tolist():
+            mine = on[sp.wall[on] == w]
+            colours = sp.colours[mine]
+            step = np.linalg.norm(colours - paint[w], axis=1) / np.sqrt(3.0)
+            plain = mine[(step < cfg.flush_colour_step) | _shaded(colours, paint[w], cfg.flush_shadow_tint)]
+            point_region[plain] = 0
+            taken += len(plain)
+    if taken == 0:
+        return sp, region, which, 0
+    sp, region, parent = regroup(sp, point_region)
+    return sp, region, which[parent], taken
 
 
 def regroup(sp: ScanPoints, point_region: NDArray[np.int64]) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:

@@ -630,10 +630,57 @@ def test_a_desk_joined_to_a_stretch_of_wall_the_plane_left_is_parted_from_it_a_b
     sp2, region2, which2, parted = part_from_wall_stretch(sp, region, which, WALL, CFG)
     assert parted == 1
     point_region = region2[sp2.graph.label]
-    desk = (sp2.points[:, 1] >= CFG.stretch_out) & (sp2.points[:, 2] >= CFG.stretch_out)
+    desk = (sp2.points[:, 1] >= CFG.stands_out) & (sp2.points[:, 2] >= CFG.stands_out)
     assert len(np.unique(point_region[desk])) == 1 and point_region[desk][0] != 1
     assert (point_region[~desk] == 1).all()  # the stretch, its bulge and the desk's edge by the wall stay
     assert len(which2) == len(region2)
     # a region lower than a wall is no stretch of it: left whole (the sliver test judges it later)
     sp, region = scan(1.6)
     assert part_from_wall_stretch(sp, region, np.zeros(len(region), np.int64), WALL, CFG)[3] == 0
+
+
+def test_the_walls_paint_and_its_shadow_in_a_wall_shelfs_region_are_taken_off_a_picture_on_it_is_not():
+    from rescene_core.segment.geometric import take_off_wall_paint
+
+    paint = np.array([0.8, 0.78, 0.75])
+    wall = _box((0.0, 0.0, 0.5), (2.0, 0.0, 2.0))  # the wall y = 0, its paint
+    board = _box((0.5, 0.025, 1.5), (1.3, 0.25, 1.5))  # a wall shelf's board
+    under = (wall[:, 0] >= 0.5) & (wall[:, 0] <= 1.3) & (wall[:, 2] >= 1.3) & (wall[:, 2] < 1.5)
+    pts = np.concatenate([wall, board])
+    colours = np.concatenate([np.tile(paint, (len(wall), 1)), np.tile([0.4, 0.3, 0.2], (len(board), 1))])
+    on_wall = np.r_[np.full(len(wall), 2), np.zeros(len(board), np.int64)]
+    in_shadow = np.zeros(len(pts), bool)
+    in_shadow[: len(wall)] = under
+    colours[in_shadow] = 0.6 * paint  # the wall in the board's shadow: its paint darkened
+    red = in_shadow & (pts[:, 0] > 1.1)  # and a red card pinned there, under the board
+    colours[red] = [0.8, 0.1, 0.1]
+    label = np.where(in_shadow, 1, np.where(on_wall > 0, 0, 2))  # the shadow fused with the board's region
+    nrm = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
+    edges = point_graph(pts, STEP * 1.75)
+    _, concave, step = edge_weights(pts, nrm, colours, edges, 1.0)
+    g = superpoint_graph(pts, nrm, colours, label, edges, concave, step)
+    sp = ScanPoints(pts, nrm, colours, on_wall, np.arange(len(pts)), edges, concave, step, g)
+    region = np.array([0, 1, 1])  # the wall's superpoint in no region; the shadow's and the board's in one
+    sp2, region2, which2, taken = take_off_wall_paint(sp, region, np.array([2, 0, 0]), WALL, CFG)
+    point_region = region2[sp2.graph.label]
+    assert taken == int((in_shadow & ~red).sum())
+    assert (point_region[in_shadow & ~red] == 0).all()
+    assert (point_region[red] == 1).all() and (point_region[len(wall) :] == 1).all()
+    assert len(which2) == len(region2)
+    # a region mostly on its wall (a picture) is left whole: the flush test judges it
+    region = np.array([0, 1, 0])
+    assert take_off_wall_paint(sp, region, np.array([2, 0, 0]), WALL, CFG)[3] == 0
+    # a region hung flat on the wall (a clock whose rim, 4 cm proud, outnumbers its face of the wall's
+    # white) is left whole too
+    face = _box((0.3, 0.01, 1.0), (0.4, 0.01, 1.1))
+    rim = np.concatenate([_box((0.2, 0.04, 0.9), (0.5, 0.04, 0.95)), _box((0.2, 0.04, 1.15), (0.5, 0.04, 1.2))])
+    pts = np.concatenate([wall, face, rim])
+    colours = np.concatenate([np.tile(paint, (len(wall) + len(face), 1)), np.tile([0.1, 0.1, 0.1], (len(rim), 1))])
+    on_wall = np.r_[np.full(len(wall) + len(face), 2), np.zeros(len(rim), np.int64)]
+    label = np.r_[np.zeros(len(wall), np.int64), np.ones(len(face) + len(rim), np.int64)]
+    nrm = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
+    edges = point_graph(pts, STEP * 1.75)
+    _, concave, step = edge_weights(pts, nrm, colours, edges, 1.0)
+    g = superpoint_graph(pts, nrm, colours, label, edges, concave, step)
+    sp = ScanPoints(pts, nrm, colours, on_wall, np.arange(len(pts)), edges, concave, step, g)
+    assert take_off_wall_paint(sp, np.array([0, 1]), np.array([2, 2]), WALL, CFG)[3] == 0
