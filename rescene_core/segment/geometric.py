@@ -945,10 +945,7 @@ def split_bodies_on_tops(
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
-    if split == 0:
-        return sp, region, which, 0
-    sp, region, parent = regroup(sp, point_region)
-    return sp, region, which[parent], split
+    return _regrouped(sp, region, which, point_region, split)
 
 
 def part_from_wall_stretch(
@@ -989,10 +986,7 @@ def part_from_wall_stretch(
                 point_region[mine] = nxt
                 nxt += 1
                 parted += 1
-    if parted == 0:
-        return sp, region, which, 0
-    sp, region, parent = regroup(sp, point_region)
-    return sp, region, which[parent], parted
+    return _regrouped(sp, region, which, point_region, parted)
 
 
 def take_off_wall_paint(
@@ -1029,10 +1023,19 @@ def take_off_wall_paint(
             plain = mine[(step < cfg.flush_colour_step) | _shaded(colours, paint[w], cfg.flush_shadow_tint)]
             point_region[plain] = 0
             taken += len(plain)
-    if taken == 0:
+    return _regrouped(sp, region, which, point_region, taken)
+
+
+def _regrouped(
+    sp: ScanPoints, region: NDArray[np.int64], which: NDArray[np.int64], point_region: NDArray[np.int64], changed: int
+) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
+    """What a step that moved points between regions returns: the scan points regrouped by the new
+    ``point_region`` [n] (``regroup``) with the region and wall of each new superpoint, and ``changed``
+    (how many it split, parted or took off); all as they were when it changed nothing."""
+    if changed == 0:
         return sp, region, which, 0
     sp, region, parent = regroup(sp, point_region)
-    return sp, region, which[parent], taken
+    return sp, region, which[parent], changed
 
 
 def regroup(sp: ScanPoints, point_region: NDArray[np.int64]) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64]]:
@@ -1079,10 +1082,7 @@ def split_stacked(
         point_region[idx[p[:, 2] >= cut]] = nxt
         nxt += 1
         split += 1
-    if split == 0:
-        return sp, region, which, 0
-    sp, region, parent = regroup(sp, point_region)
-    return sp, region, which[parent], split
+    return _regrouped(sp, region, which, point_region, split)
 
 
 def _stack_cut(p: NDArray, cfg: SegmentConfig) -> float | None:
