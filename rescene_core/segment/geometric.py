@@ -1016,6 +1016,8 @@ def take_off_wall_paint(
             continue
         if _out_from_wall(sp.points[idx], planes) < cfg.stands_out:
             continue  # hung flat on the wall (a clock, its face of the wall's white): the flush tests judge it
+        if (_structure_distance(sp.points[idx], planes) < cfg.structure_band).mean() >= cfg.structure_sliver_fraction:
+            continue  # a sliver of the structure, dropped whole; without its paint it would no longer look one
         for w in np.unique(sp.wall[on]).tolist():
             mine = on[sp.wall[on] == w]
             colours = sp.colours[mine]

@@ -639,48 +639,57 @@ def test_a_desk_joined_to_a_stretch_of_wall_the_plane_left_is_parted_from_it_a_b
     assert part_from_wall_stretch(sp, region, np.zeros(len(region), np.int64), WALL, CFG)[3] == 0
 
 
-def test_the_walls_paint_and_its_shadow_in_a_wall_shelfs_region_are_taken_off_a_picture_on_it_is_not():
-    from rescene_core.segment.geometric import take_off_wall_paint
+PAINT = np.array([0.8, 0.78, 0.75])
 
-    paint = np.array([0.8, 0.78, 0.75])
-    wall = _box((0.0, 0.0, 0.5), (2.0, 0.0, 2.0))  # the wall y = 0, its paint
-    board = _box((0.5, 0.025, 1.5), (1.3, 0.25, 1.5))  # a wall shelf's board
-    under = (wall[:, 0] >= 0.5) & (wall[:, 0] <= 1.3) & (wall[:, 2] >= 1.3) & (wall[:, 2] < 1.5)
-    pts = np.concatenate([wall, board])
-    colours = np.concatenate([np.tile(paint, (len(wall), 1)), np.tile([0.4, 0.3, 0.2], (len(board), 1))])
-    on_wall = np.r_[np.full(len(wall), 2), np.zeros(len(board), np.int64)]
-    in_shadow = np.zeros(len(pts), bool)
-    in_shadow[: len(wall)] = under
-    colours[in_shadow] = 0.6 * paint  # the wall in the board's shadow: its paint darkened
-    red = in_shadow & (pts[:, 0] > 1.1)  # and a red card pinned there, under the board
-    colours[red] = [0.8, 0.1, 0.1]
-    label = np.where(in_shadow, 1, np.where(on_wall > 0, 0, 2))  # the shadow fused with the board's region
+
+def _on_wall(parts: list[tuple[np.ndarray, object, int, int]]) -> ScanPoints:
+    """ScanPoints of point sets [k, 3] facing +y, each with its colour (RGB, or [k, 3]), its wall (0: none,
+    as ``ScanPoints.wall``) and its superpoint."""
+    pts = np.concatenate([p for p, _, _, _ in parts])
+    colours = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(p), 3)) for p, c, _, _ in parts])
+    on_wall = np.concatenate([np.full(len(p), w, np.int64) for p, _, w, _ in parts])
+    label = np.concatenate([np.full(len(p), i, np.int64) for p, _, _, i in parts])
     nrm = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
     edges = point_graph(pts, STEP * 1.75)
     _, concave, step = edge_weights(pts, nrm, colours, edges, 1.0)
     g = superpoint_graph(pts, nrm, colours, label, edges, concave, step)
-    sp = ScanPoints(pts, nrm, colours, on_wall, np.arange(len(pts)), edges, concave, step, g)
-    region = np.array([0, 1, 1])  # the wall's superpoint in no region; the shadow's and the board's in one
-    sp2, region2, which2, taken = take_off_wall_paint(sp, region, np.array([2, 0, 0]), WALL, CFG)
+    return ScanPoints(pts, nrm, colours, on_wall, np.arange(len(pts)), edges, concave, step, g)
+
+
+def test_the_walls_paint_and_its_shadow_in_a_wall_shelfs_region_are_taken_off_a_picture_on_it_is_not():
+    from rescene_core.segment.geometric import take_off_wall_paint
+
+    wall = _box((0.0, 0.0, 0.5), (2.0, 0.0, 2.0))  # the wall y = 0, its paint
+    under = (wall[:, 0] >= 0.5) & (wall[:, 0] <= 1.3) & (wall[:, 2] >= 1.3) & (wall[:, 2] < 1.5)
+    red = under & (wall[:, 0] > 1.1)  # a red card pinned under the board
+    shadow = under & ~red  # the wall in the board's shadow: its paint darkened
+    colours = np.where(shadow[:, None], 0.6 * PAINT, np.where(red[:, None], [0.8, 0.1, 0.1], PAINT))
+    board = _box((0.5, 0.025, 1.5), (1.3, 0.25, 1.5))  # a wall shelf's board
+    # the wall's superpoint in no region; the shadow's (with the card) fused with the board's region
+    sp = _on_wall([(wall[~under], PAINT, 2, 0), (wall[under], colours[under], 2, 1), (board, [0.4, 0.3, 0.2], 0, 2)])
+    sp2, region2, which2, taken = take_off_wall_paint(sp, np.array([0, 1, 1]), np.array([2, 0, 0]), WALL, CFG)
     point_region = region2[sp2.graph.label]
-    assert taken == int((in_shadow & ~red).sum())
-    assert (point_region[in_shadow & ~red] == 0).all()
-    assert (point_region[red] == 1).all() and (point_region[len(wall) :] == 1).all()
+    is_shadow = np.r_[np.zeros((~under).sum(), bool), shadow[under], np.zeros(len(board), bool)]
+    is_red = np.r_[np.zeros((~under).sum(), bool), red[under], np.zeros(len(board), bool)]
+    assert taken == int(shadow.sum()) and (point_region[is_shadow] == 0).all()
+    assert (point_region[is_red] == 1).all() and (point_region[-len(board) :] == 1).all()
     assert len(which2) == len(region2)
     # a region mostly on its wall (a picture) is left whole: the flush test judges it
-    region = np.array([0, 1, 0])
-    assert take_off_wall_paint(sp, region, np.array([2, 0, 0]), WALL, CFG)[3] == 0
+    assert take_off_wall_paint(sp, np.array([0, 1, 0]), np.array([2, 0, 0]), WALL, CFG)[3] == 0
     # a region hung flat on the wall (a clock whose rim, 4 cm proud, outnumbers its face of the wall's
     # white) is left whole too
     face = _box((0.3, 0.01, 1.0), (0.4, 0.01, 1.1))
     rim = np.concatenate([_box((0.2, 0.04, 0.9), (0.5, 0.04, 0.95)), _box((0.2, 0.04, 1.15), (0.5, 0.04, 1.2))])
-    pts = np.concatenate([wall, face, rim])
-    colours = np.concatenate([np.tile(paint, (len(wall) + len(face), 1)), np.tile([0.1, 0.1, 0.1], (len(rim), 1))])
-    on_wall = np.r_[np.full(len(wall) + len(face), 2), np.zeros(len(rim), np.int64)]
-    label = np.r_[np.zeros(len(wall), np.int64), np.ones(len(face) + len(rim), np.int64)]
-    nrm = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
-    edges = point_graph(pts, STEP * 1.75)
-    _, concave, step = edge_weights(pts, nrm, colours, edges, 1.0)
-    g = superpoint_graph(pts, nrm, colours, label, edges, concave, step)
-    sp = ScanPoints(pts, nrm, colours, on_wall, np.arange(len(pts)), edges, concave, step, g)
+    sp = _on_wall([(wall, PAINT, 2, 0), (face, PAINT, 2, 1), (rim, [0.1, 0.1, 0.1], 0, 1)])
     assert take_off_wall_paint(sp, np.array([0, 1]), np.array([2, 2]), WALL, CFG)[3] == 0
+    # and so is a sliver of the wall (a patch by the floor, half on the plane and half just off it, with a
+    # scrap 15 cm out): the filter drops it whole, where without its paint it would no longer look a sliver
+    patch = _box((3.0, 0.0, 0.05), (3.3, 0.0, 0.8))
+    sp = _on_wall(
+        [
+            (patch, PAINT, 2, 0),
+            (patch + [0.0, 0.02, 0.0], PAINT, 0, 1),
+            (_box((3.0, 0.05, 0.05), (3.1, 0.15, 0.1)), PAINT, 0, 1),
+        ]
+    )
+    assert take_off_wall_paint(sp, np.array([1, 1]), np.array([2, 0]), WALL, CFG)[3] == 0
