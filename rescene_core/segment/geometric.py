@@ -726,11 +726,7 @@ def wall_superpoints(
         wall_colour = paint[int(plane["id"])]
         proud = np.bincount(g.label[mine], sp.points[mine] @ np.asarray(plane["normal"]) + plane["offset"], n)
         proud = proud / np.maximum(np.bincount(g.label[mine], minlength=n), 1)
-        step = np.linalg.norm(g.colour - wall_colour, axis=1) / np.sqrt(3.0)
-        # the wall in a shadow (under a wall shelf, behind furniture) differs in colour but is no picture:
-        # taken as one, it joins the shelf casting it and buries the shelf in wall
-        coloured = (step >= cfg.flush_colour_step) & ~_shaded(g.colour, wall_colour, cfg.flush_shadow_tint)
-        cand = (which == plane["id"]) & (coloured | (proud >= cfg.flush_offset))
+        cand = (which == plane["id"]) & (~_of_paint(g.colour, wall_colour, cfg) | (proud >= cfg.flush_offset))
         flush |= cand & hangs & (extent <= cfg.flush_max_extent)
     # a hanging superpoint off every plane but lying wholly within ``structure_band`` in front of a wall,
     # along its stretch, is a piece of something hung on it (a clock's rim and face stand 2-4 cm proud,
@@ -745,6 +741,15 @@ def wall_superpoints(
 def wall_colours(sp: ScanPoints) -> dict[int, NDArray[np.float64]]:
     """The colour [3] (RGB in [0, 1]) of each wall (by id) that scan points lie on: their median colour."""
     return {int(w): np.median(sp.colours[sp.wall == w], axis=0) for w in np.unique(sp.wall[sp.wall > 0])}
+
+
+def _of_paint(colours: NDArray, wall_colour: NDArray, cfg: SegmentConfig) -> NDArray[np.bool_]:
+    """Whether each colour [s, 3] (RGB in [0, 1]) is its wall's paint [3]: within ``flush_colour_step`` of it
+    (RGB distance / sqrt 3) or the paint darkened (``_shaded``). The wall in a shadow (under a wall shelf,
+    behind furniture) differs in colour but is no picture: taken as one, it joins the shelf casting it and
+    buries the shelf in wall."""
+    step = np.linalg.norm(colours - wall_colour, axis=1) / np.sqrt(3.0)
+    return (step < cfg.flush_colour_step) | _shaded(colours, wall_colour, cfg.flush_shadow_tint)
 
 
 def _shaded(colours: NDArray, wall_colour: NDArray, tint: float) -> NDArray[np.bool_]:
@@ -972,7 +977,7 @@ def part_from_wall_stretch(
         if len(idx) < cfg.min_segment_points or np.ptp(sp.points[idx, 2]) < cfg.wall_piece_height:
             continue
         dist = _structure_distance(sp.points[idx], planes)
-        if (dist < cfg.structure_band).mean() < cfg.structure_sliver_fraction:
+        if not _mostly_structure(dist, cfg):
             continue
         off = np.zeros(len(sp.points), bool)
         off[idx[dist >= cfg.stands_out]] = True
@@ -1000,8 +1005,8 @@ def take_off_wall_paint(
     free points (the wall in a wall shelf's shadow fused with the shelf's brackets) is the wall's only when
     most of its points are, so an object's region takes in wall points with it. In a region under half on
     walls (no flush object), the points on a wall's plane (``ScanPoints.wall``) of its colour (a step under
-    ``flush_colour_step``) or of its colour darkened (``_shaded``: a shadow) are taken off, as
-    ``wall_superpoints`` judges a superpoint. ``region`` [s] (0: none), ``which`` [s]: the wall of each
+    ``flush_colour_step``) or of its colour darkened (a shadow) are taken off (``_of_paint``, as
+    ``wall_superpoints`` judges a superpoint). ``region`` [s] (0: none), ``which`` [s]: the wall of each
     superpoint (0: none). Returns the scan points with the new superpoint graph, the region and wall of
     each new superpoint, and how many points were taken off."""
     point_region = region[sp.graph.label].copy()
@@ -1016,13 +1021,11 @@ def take_off_wall_paint(
             continue
         if _out_from_wall(sp.points[idx], planes) < cfg.stands_out:
             continue  # hung flat on the wall (a clock, its face of the wall's white): the flush tests judge it
-        if (_structure_distance(sp.points[idx], planes) < cfg.structure_band).mean() >= cfg.structure_sliver_fraction:
+        if _mostly_structure(_structure_distance(sp.points[idx], planes), cfg):
             continue  # a sliver of the structure, dropped whole; without its paint it would no longer look one
         for w in np.unique(sp.wall[on]).tolist():
             mine = on[sp.wall[on] == w]
-            colours = sp.colours[mine]
-            step = np.linalg.norm(colours - paint[w], axis=1) / np.sqrt(3.0)
-            plain = mine[(step < cfg.flush_colour_step) | _shaded(colours, paint[w], cfg.flush_shadow_tint)]
+            plain = mine[_of_paint(sp.colours[mine], paint[w], cfg)]
             point_region[plain] = 0
             taken += len(plain)
     return _regrouped(sp, region, which, point_region, taken)
@@ -1841,6 +1844,12 @@ def _structure_distance(p: NDArray, planes: list[dict[str, Any]]) -> NDArray[np.
     return dist
 
 
+def _mostly_structure(dist: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether ``structure_sliver_fraction`` of a region's points, ``dist`` [k] (m) from the nearest structure
+    plane (``_structure_distance``), lie within ``structure_band`` of it: the first test of a sliver."""
+    return bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)
+
+
 def _is_wall_piece(p: NDArray, cfg: SegmentConfig) -> bool:
     """A region [k, 3] that is one upright sheet (under ``sliver_thickness`` thick across its flattest
     direction, which is horizontal) and at least ``wall_piece_height`` tall: a stretch of wall the plane
@@ -1958,7 +1967,7 @@ def _filter_regions(
             counts["joined_structure"] += 1
             continue
         dist = _structure_distance(p, planes)
-        sliver = bool((dist < cfg.structure_band).mean() >= cfg.structure_sliver_fraction)
+        sliver = _mostly_structure(dist, cfg)
         # thinner than ``sliver_thickness`` across the plane, or as tall as a wall (a stretch of wall whose
         # fused surface wanders a few centimetres about the plane: no furniture lies along a wall that tall)
         sliver &= bool(np.percentile(dist, 95) < cfg.sliver_thickness) or bool(np.ptp(p[:, 2]) >= cfg.wall_piece_height)
