@@ -21,12 +21,16 @@
    bookcase), unless it rests on a top of the other (a book stack on a shelf, a lamp on a nightstand).
    A region ending just under another, its slender upper end under the other's footprint, joins it (a
    table lamp's base and stem under its shade, parted from it by colour and the crease at the rim, or by
-   a gap where the fusion lost the stem's thin top).
+   a gap where the fusion lost the stem's thin top), and so does a broad one the other overhangs all round
+   (a plant's pot under its foliage, its leaves hanging below the pot's rim beside it).
    A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
    a body stored on a shelf of a case, parted from the case's back and sides at its creases, with a board
    of the case over it (a book stack against a bookcase's back panel). A small region resting on
    something that narrows sharply at some height is two bodies, split there (a book stack on a stack).
+   A region standing upright in a larger one's bounds under a board of it, not in layers, joins it (a row
+   of books standing in a bookcase), and a body split off a top joins a shade over it as a stem does (a
+   lamp's base, given first to the nightstand it touches most).
    A low flat region lying on a mattress (a large top at a bed's height) joins it: a bed's pillows.
    Wall superpoints stay wall unless their colour differs from the wall's (not as a shadow's does: it
    keeps the wall's hue) or they stand proud of it, and hanging superpoints just off a wall's plane (a
@@ -844,9 +848,14 @@ def merge_superpoints(
     )
     region, stats["stems_joined"] = _join_stems(sp, region, cfg, planes)
     region, stats["brackets_joined"] = _join_brackets(sp, region, cfg, planes)
+    region, stats["rows_joined"] = _join_stored_rows(sp, region, cfg)
     sp, region, which, stats["parted_from_wall"] = part_from_wall_stretch(sp, region, which, planes, cfg)
+    split_from = int(region.max(initial=0)) + 1
     sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
     sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
+    # a lamp's base that ``_absorb_small`` gave to its nightstand came back off the top as a body of its own:
+    # now under its shade as a stem is
+    region, stats["stems_rejoined"] = _join_stems(sp, region, cfg, planes, split_from)
     region, stats["bedding_joined"] = _join_bedding(sp, region, cfg)
     sp, region, which, stats["wall_points_taken_off"] = take_off_wall_paint(sp, region, which, planes, cfg)
     region, drop = _filter_regions(sp, region, which, planes, cfg)
@@ -1435,7 +1444,11 @@ def _touching_regions(
 
 
 def _join_stems(
-    sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig, planes: list[dict[str, Any]]
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    cfg: SegmentConfig,
+    planes: list[dict[str, Any]],
+    split_from: int = 0,
 ) -> tuple[NDArray[np.int64], int]:
     """A region below another, its top between ``support_band`` above the other's lowest point and
     ``stem_gap`` under it, joins that one when its upper end (the points within ``support_band`` of its top)
@@ -1443,16 +1456,31 @@ def _join_stems(
     the other both ways, and at least ``stem_overlap`` of its own footprint lies under the other's: a table
     lamp's base and stem under its shade, parted from it by the shade's colour and the crease at the rim, or
     by a gap where the fusion lost the stem's thin top (an angled arm, a base broader than the shade). A book
-    stack under another has a top as broad as itself and stays apart; a region that hangs (``_hangs``) joins
-    however broad its upper end: a wall shelf's bracket, parted from the board by its colour. ``region`` [s]
-    (0: none); returns the regions and how many joined."""
+    stack under another has a top as broad as itself and stays apart. A region joins however broad its upper
+    end when the other reaches ``top_margin`` past that end on every side (a plant's pot under its foliage)
+    or when it hangs (``_hangs``: a wall shelf's bracket, parted from the board by its colour). What
+    overhangs a region all round may begin lower than its top when what hangs that low lies beside the
+    region, not over it (``_hangs_over``: leaves hanging beside the pot). With ``split_from`` > 0 (run
+    after the splits, the first id of the bodies they split off) only those bodies join, and only as stems
+    narrower than ``leg_width`` at their upper end, to regions numbered below it: a lamp's base and stem
+    split off its nightstand's top join its shade; a stack split off a bookcase's shelf stays apart from
+    the books standing on the board over it. ``region`` [s] (0: none); returns the regions and how many
+    joined."""
     g = sp.graph
     n = int(region.max(initial=0)) + 1
     lo, hi = _region_bounds(g, region, n)
     point_region = region[g.label]
     gap = lo[None, :, 2] - hi[:, None, 2]  # [low, top]: from the low one's top up to the other's lowest point
-    under = (gap >= -cfg.support_band) & (gap <= cfg.stem_gap) & (lo[:, None, 2] < lo[None, :, 2])
+    above = lo[:, None, 2] < lo[None, :, 2]
+    under = (gap >= -cfg.support_band) & (gap <= cfg.stem_gap) & above
+    # what overhangs a region all round may hang lower than the region's top beside it (foliage over its pot)
+    around = (lo[None, :, :2] + cfg.top_margin <= lo[:, None, :2]).all(axis=2)
+    around &= (hi[:, None, :2] <= hi[None, :, :2] - cfg.top_margin).all(axis=2)
+    droop = around & (gap < -cfg.support_band) & above & (split_from == 0)
+    under |= droop
     under[0, :] = under[:, 0] = False
+    if split_from:
+        under[:split_from, :] = under[:, split_from:] = False
     lows, tops = np.nonzero(under)
     cover = np.clip(np.minimum(hi[lows, :2], hi[tops, :2] + cfg.stem_margin)
                     - np.maximum(lo[lows, :2], lo[tops, :2] - cfg.stem_margin), 0.0, None).prod(axis=1)  # fmt: skip
@@ -1468,15 +1496,75 @@ def _join_stems(
             continue
         p = sp.points[by_region[start[low] : start[low + 1]]]
         end = p[p[:, 2] >= hi[low, 2] - cfg.support_band, :2]
+        if droop[low, top] and _hangs_over(p, sp.points[by_region[start[top] : start[top + 1]]], hi[low, 2], cfg):
+            continue  # what hangs lower than its top lies over it, not beside it
         if np.any(end.min(axis=0) < lo[top, :2] - cfg.stem_margin) or np.any(
             end.max(axis=0) > hi[top, :2] + cfg.stem_margin
         ):
             continue  # its upper end reaches out from under the other (a floor lamp's arm beside a shelf)
+        if split_from and np.any(np.ptp(end, axis=0) > cfg.leg_width):
+            continue
         broad = np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2]))
-        if broad and not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg):
+        # a plant's foliage overhangs its pot all round; a stack on a stack is no broader than the one under it
+        overhung = np.all(end.min(axis=0) >= lo[top, :2] + cfg.top_margin) and np.all(
+            end.max(axis=0) <= hi[top, :2] - cfg.top_margin
+        )
+        if (
+            broad
+            and not (overhung and split_from == 0)
+            and not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg)
+        ):
             continue  # a broad top: a body under the other (a book stack under another), not a stem
         remap[low] = top
         joined += 1
+    return remap[region], joined
+
+
+def _hangs_over(low: NDArray, top: NDArray, height: float, cfg: SegmentConfig) -> bool:
+    """Whether ``min_contacts`` or more of the points ``top`` [k, 3] lower than ``height`` less
+    ``support_band`` (m) lie over the footprint of the points ``low`` [m, 3], in cells of twice
+    ``superpoint_voxel``: what hangs below a region's top over it, not beside it as foliage hangs beside its
+    pot."""
+    cell = 2.0 * cfg.superpoint_voxel
+    below = top[top[:, 2] < height - cfg.support_band, :2]
+    if len(below) < cfg.min_contacts:
+        return False
+    own = np.unique(np.floor(low[:, :2] / cell).astype(np.int64), axis=0)
+    cells = np.floor(below / cell).astype(np.int64)
+    inside = (cells[:, None, :] == own[None, :, :]).all(axis=2).any(axis=1)
+    return int(inside.sum()) >= cfg.min_contacts
+
+
+def _join_stored_rows(sp: ScanPoints, region: NDArray[np.int64], cfg: SegmentConfig) -> tuple[NDArray[np.int64], int]:
+    """A region that touches a larger one and stands within its bounds (footprint within ``top_margin``,
+    above its lowest point and under its highest), upright under a board of it (``_stored_upright``) and not
+    in layers (``_in_layers``), joins it: a row of books standing in a bookcase that the graph never joined
+    to the case is the case's, as ``_stored_bodies`` leaves such a row to the case when it is. A book stack
+    lies flat or shows its layers, and stays apart. ``region`` [s] (0: none); returns the regions and how
+    many joined."""
+    g = sp.graph
+    n = int(region.max(initial=0)) + 1
+    lo, hi = _region_bounds(g, region, n)
+    size = np.bincount(region, g.count, n)
+    point_region = region[g.label]
+    by_region, start = points_by_region(point_region, n)
+    remap = np.arange(n)
+    joined = 0
+    for a, b in _touching_regions(g, region, n, cfg.min_contacts):
+        r, case = (a, b) if size[a] < size[b] else (b, a)
+        if remap[r] != r or remap[case] != case:
+            continue
+        within = np.all(lo[r, :2] >= lo[case, :2] - cfg.top_margin) and np.all(
+            hi[r, :2] <= hi[case, :2] + cfg.top_margin
+        )
+        if not within or lo[r, 2] < lo[case, 2] or hi[r, 2] >= hi[case, 2]:
+            continue
+        case_points = sp.points[by_region[start[case] : start[case + 1]]]
+        if _stored_upright(case_points, lo[r], hi[r], cfg) and not _in_layers(sp, point_region == r, cfg):
+            remap[r] = case
+            joined += 1
+    while np.any(remap[remap] != remap):  # a row joined to a region that itself joined a larger one
+        remap = remap[remap]
     return remap[region], joined
 
 

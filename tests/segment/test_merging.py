@@ -277,6 +277,61 @@ def test_a_lamps_stem_whose_top_the_fusion_lost_joins_its_shade_a_stem_far_under
     assert _join_stems(sp, region, CFG, WALL)[1] == 0
 
 
+def test_a_plants_pot_under_its_foliage_joins_it_a_stack_under_one_flush_with_its_side_does_not():
+    pot = _box((0.4, 0.4, 0.0), (0.75, 0.75, 0.3))  # 35 cm across, its rim at 0.3 m
+    foliage = _box((0.25, 0.25, 0.325), (0.9, 0.9, 0.8))  # 65 cm across, 15 cm past the pot all round
+    sp, region = _scan([pot, foliage])
+    out, joined = _join_stems(sp, region, CFG, WALL)
+    assert joined == 1 and out[0] == out[1]
+    # the upper region flush with the lower one's side (a stack on a broader stack, pushed to its end)
+    sp, region = _scan([pot, foliage + [0.15, 0.0, 0.0]])
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
+    # leaves hanging 10 cm below the pot's rim beside it, 10 to 15 cm out from it
+    hanging = np.concatenate([foliage, _box((0.25, 0.25, 0.2), (0.3, 0.9, 0.3))])
+    sp, region = _scan([pot, hanging])
+    assert _join_stems(sp, region, CFG, WALL)[1] == 1
+    # the same reaching down within the pot's own footprint stays apart: nothing hangs beside a pot there
+    sp, region = _scan([pot, np.concatenate([foliage, _box((0.45, 0.45, 0.2), (0.7, 0.5, 0.3))])])
+    assert _join_stems(sp, region, CFG, WALL)[1] == 0
+
+
+def test_after_the_splits_a_lamps_base_split_off_joins_its_shade_a_stack_split_off_a_shelf_does_not():
+    shade = _box((0.35, 0.35, 0.775), (0.65, 0.65, 0.95))
+    base = np.concatenate([_box((0.4, 0.4, 0.5), (0.6, 0.6, 0.525)), _box((0.5, 0.5, 0.55), (0.5, 0.5, 0.75))])
+    books = _box((1.0, 0.0, 0.3), (1.7, 0.3, 0.66))  # books on the board over a shelf, left apart from the case
+    stack = _box((1.1, 0.05, 0.08), (1.35, 0.28, 0.26))  # a stack split off the shelf under that board
+    sp, region = _scan([shade, books, base, stack])  # regions 3 and 4 came off tops
+    out, joined = _join_stems(sp, region, CFG, WALL, split_from=3)
+    assert joined == 1 and out[2] == out[0] and out[3] not in (out[0], out[1])
+    # only what the splits made joins: the same shade and base, both there before, are the first pass's
+    assert _join_stems(sp, region, CFG, WALL, split_from=5)[1] == 0
+
+
+def test_a_row_of_books_left_apart_joins_its_bookcase_a_flat_stack_or_a_row_with_no_board_over_it_does_not():
+    from rescene_core.segment.geometric import _join_stored_rows
+
+    def case(board: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+        faces = [
+            _faces((0.0, 0.0, 0.0), (0.0, 0.3, 1.0), (1, 0, 0)),  # side panels' inner faces
+            _faces((0.8, 0.0, 0.0), (0.8, 0.3, 1.0), (-1, 0, 0)),
+            _faces((0.025, 0.0, 0.0), (0.775, 0.0, 1.0), (0, 1, 0)),  # the back
+            _faces((0.025, 0.025, 0.5), (0.775, 0.3, 0.5), (0, 0, 1)),  # a shelf
+        ]
+        return faces + ([_faces((0.025, 0.025, 0.8), (0.775, 0.3, 0.8), (0, 0, -1))] if board else [])
+
+    # upright books 25 cm tall, 17.5 cm deep, their tops 2.5 cm under the board over them
+    row = [_faces((0.025, 0.2, 0.525), (0.4, 0.2, 0.75), (0, 1, 0)), _up((0.025, 0.025, 0.775), (0.4, 0.175, 0.775))]
+    stack = [_up((0.5, 0.025, 0.6), (0.75, 0.225, 0.6)), _faces((0.5, 0.25, 0.525), (0.75, 0.25, 0.575), (0, 1, 0))]
+    for board in (True, False):
+        parts = [case(board), row, stack]
+        sp = _surfaces([f for part in parts for f in part])
+        region = np.repeat(np.arange(1, 4), [len(part) for part in parts])
+        out, joined = _join_stored_rows(sp, region, CFG)
+        assert joined == int(board)
+        assert (out[-2:] == 3).all()  # the stack lies flat: a body on the shelf, never the case's
+        assert (out[len(parts[0]) : -2] == (1 if board else 2)).all()
+
+
 def _lying_on(top: np.ndarray, body: np.ndarray) -> np.ndarray:
     """The points of a top [k, 3] outside a body's footprint (the top under a body is hidden)."""
     lo, hi = body[:, :2].min(axis=0), body[:, :2].max(axis=0)
