@@ -1498,22 +1498,17 @@ def _join_stems(
         end = p[p[:, 2] >= hi[low, 2] - cfg.support_band, :2]
         if droop[low, top] and _hangs_over(p, sp.points[by_region[start[top] : start[top + 1]]], hi[low, 2], cfg):
             continue  # what hangs lower than its top lies over it, not beside it
-        if np.any(end.min(axis=0) < lo[top, :2] - cfg.stem_margin) or np.any(
-            end.max(axis=0) > hi[top, :2] + cfg.stem_margin
-        ):
+        end_lo, end_hi = end.min(axis=0), end.max(axis=0)
+        if np.any(end_lo < lo[top, :2] - cfg.stem_margin) or np.any(end_hi > hi[top, :2] + cfg.stem_margin):
             continue  # its upper end reaches out from under the other (a floor lamp's arm beside a shelf)
-        if split_from and np.any(np.ptp(end, axis=0) > cfg.leg_width):
+        if split_from and np.any(end_hi - end_lo > cfg.leg_width):
             continue
-        broad = np.any(np.ptp(end, axis=0) > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2]))
+        broad = np.any(end_hi - end_lo > cfg.stem_width_fraction * (hi[top, :2] - lo[top, :2]))
         # a plant's foliage overhangs its pot all round; a stack on a stack is no broader than the one under it
-        overhung = np.all(end.min(axis=0) >= lo[top, :2] + cfg.top_margin) and np.all(
-            end.max(axis=0) <= hi[top, :2] - cfg.top_margin
+        overhung = split_from == 0 and bool(
+            np.all(end_lo >= lo[top, :2] + cfg.top_margin) and np.all(end_hi <= hi[top, :2] - cfg.top_margin)
         )
-        if (
-            broad
-            and not (overhung and split_from == 0)
-            and not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg)
-        ):
+        if broad and not overhung and not _hangs(sp, point_region, low, lo[low], hi[low], planes, cfg):
             continue  # a broad top: a body under the other (a book stack under another), not a stem
         remap[low] = top
         joined += 1
