@@ -25,9 +25,10 @@
    (a plant's pot under its foliage, its leaves hanging below the pot's rim beside it).
    A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
    sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
-   a body stored on a shelf of a case, parted from the case's back and sides at its creases, with a board
-   of the case over it (a book stack against a bookcase's back panel). A small region resting on
-   something that narrows sharply at some height is two bodies, split there (a book stack on a stack).
+   a body stored on a shelf of a case, parted from the case's back and sides at its creases and where the
+   colour leaves the case's own, with a board of the case over it (a book stack against a bookcase's back
+   panel). A small region resting on something that narrows sharply at some height is two bodies, split
+   there (a book stack on a stack).
    A region standing upright in a larger one's bounds under a board of it, not in layers, joins it (a row
    of books standing in a bookcase), and a body split off a top joins a shade over it as a stem does (a
    lamp's base, given first to the nightstand it touches most).
@@ -296,6 +297,17 @@ class SegmentConfig(BaseModel):
     frame_column_least: int = 3
     """... or whose bins are filled from its lowest point up to that height without a break, over this many
     bins (a panel seen only above a stack standing in front of it)."""
+    case_tint: float = 0.045
+    """A point of a case is of the case's own colour when, after the best multiple of its shelf's colour is
+    taken off, less than this is left (RGB distance / sqrt 3; the wood or paint lit or shaded: median 0.003-
+    0.004 on cluttered 204, 205 and 213; a book stack's points: median 0.05-0.11, 8-39 % under this). Bodies
+    stored on the shelf are parted from the case where the colour changes (a stack flush with a panel
+    whose corner the fused surface rounds)."""
+    row_min_height: float = 0.15
+    """A body parted from its case by its colour alone (``case_tint``) whose colour seams run in rows
+    (``_in_rows``) is a row of the case's upright books when it is at least this tall (m) (books stand
+    16-30 cm tall; a stack of two or three books, 4-10 cm, shows the ledges of its books from above as
+    seams running across)."""
     layer_colour_step: float = 0.1
     """A body taken as upright (``stored_cover_gap``) whose point edges stepping this much in colour
     (RGB distance / sqrt 3: the seams between books) ..."""
@@ -319,12 +331,18 @@ class SegmentConfig(BaseModel):
     stacked_min_part: float = 0.03
     """... is two bodies, one resting on the other (a book stack on a book stack), when it can be cut at a
     height at least this far (m) over its foot and under its top (two books of 1.8 cm) ..."""
-    stacked_narrowing: float = 0.8
+    stacked_narrowing: float = 0.86
     """... where what is above the cut is at most this share of what is below it, both ways, over the whole
-    parts and over the ``stacked_slice`` on either side of the cut (a stack on a stack: 0.6-0.8; the books of
-    one stack, 0.8-1.0 wide each: 0.83 or more; a lamp's shade narrowing up: 0.9 or more) ..."""
+    parts and over the ``stacked_slice`` on either side of the cut (a stack on a stack, at its seam: 0.7-0.98,
+    most 0.81-0.85 on cluttered 204-215; the books of one stack, 0.8-1.0 wide each, nowhere under 0.89 on
+    the 30 stacks of those seeds segmented alone; a lamp's shade narrowing up: 0.9 or more) ..."""
     stacked_slice: float = 0.03
     """... (m) ..."""
+    stacked_max_flare: float = 1.5
+    """... and the body below does not flare out upward: its slice under the cut is at most this many times
+    as wide as its slice at the foot (the lower stack of a pair: 0.74-1.36 at the 33 cuts on cluttered 0-1
+    and 205-215; a plant cut at the crown of its foliage, on standard 212 and cluttered 208: 1.68-1.74,
+    the pot at its foot) ..."""
     stacked_min_points: int = 40
     """... with at least this many points above and below the cut (fewer above are a lid or a cap of the body
     below: a jar's lid on the egocentric preset, 27 points), ``stacked_slice_points`` in each slice, and
@@ -759,9 +777,16 @@ def _of_paint(colours: NDArray, wall_colour: NDArray, cfg: SegmentConfig) -> NDA
 def _shaded(colours: NDArray, wall_colour: NDArray, tint: float) -> NDArray[np.bool_]:
     """Whether each colour [s, 3] (RGB in [0, 1]) is the wall's colour [3] darkened: a multiple k < 1 of it
     leaves less than ``tint`` (RGB distance / sqrt 3) of the colour unexplained (a shadow keeps the hue)."""
-    k = colours @ wall_colour / max(float(wall_colour @ wall_colour), 1e-9)
-    rest = np.linalg.norm(colours - k[:, None] * wall_colour, axis=1) / np.sqrt(3.0)
+    k, rest = _hue_rest(colours, wall_colour)
     return (k < 1.0) & (rest < tint)
+
+
+def _hue_rest(colours: NDArray, reference: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For each colour [n, 3] (RGB in [0, 1]), the multiple k [n] of ``reference`` [3] nearest to it and what
+    is left of it after that multiple is taken off [n] (RGB distance / sqrt 3): 0 for the reference lit or
+    shaded, more as the hue departs from it."""
+    k = colours @ reference / max(float(reference @ reference), 1e-9)
+    return k, np.linalg.norm(colours - k[:, None] * reference, axis=1) / np.sqrt(3.0)
 
 
 def _near_wall(sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig) -> NDArray[np.int64]:
@@ -1106,8 +1131,10 @@ def _stack_cut(p: NDArray, cfg: SegmentConfig) -> float | None:
     points above over that of those below, and of the ``stacked_slice`` above over the slice below. The
     height of least narrowing is the cut when it is at most ``stacked_narrowing``, the centre of the points
     above lies over those below, both sides hold ``stacked_min_points`` (``min_segment_points`` below, so
-    the lower body stays a segment) and each slice ``stacked_slice_points``."""
+    the lower body stays a segment) and each slice ``stacked_slice_points``, and the slice below is at most
+    ``stacked_max_flare`` as wide as the ``stacked_slice`` at the foot (``_flares``)."""
     z = p[:, 2]
+    foot = p[z < z.min() + cfg.stacked_slice, :2]
     best, cut = cfg.stacked_narrowing, None
     for h in np.arange(z.min() + cfg.stacked_min_part, z.max() - cfg.stacked_min_part + 1e-9, 0.01):
         below, above = p[z < h], p[z >= h]
@@ -1122,9 +1149,18 @@ def _stack_cut(p: NDArray, cfg: SegmentConfig) -> float | None:
         step = np.ptp(over, axis=0) / np.maximum(np.ptp(under, axis=0), 1e-6)
         narrowing = float(max(whole.max(), step.max()))
         centre = above[:, :2].mean(axis=0)
-        if narrowing <= best and np.all(centre > blo) and np.all(centre < bhi):
+        if narrowing <= best and not _flares(under, foot, cfg) and np.all(centre > blo) and np.all(centre < bhi):
             best, cut = narrowing, float(h)
     return cut
+
+
+def _flares(under: NDArray, foot: NDArray, cfg: SegmentConfig) -> bool:
+    """Whether a body flares out upward: the slice under a cut ``under`` [k, 2] (x, y, m) is more than
+    ``stacked_max_flare`` as wide as the slice at its foot ``foot`` [f, 2], the wider of x and y (a pot under
+    spreading foliage). A foot of fewer than ``stacked_slice_points`` points tells nothing."""
+    if len(foot) < cfg.stacked_slice_points:
+        return False
+    return float(np.max(np.ptp(under, axis=0) / np.maximum(np.ptp(foot, axis=0), 1e-6))) > cfg.stacked_max_flare
 
 
 def _footprint(top: NDArray, cell: float) -> tuple[float, Polygon]:
@@ -1201,25 +1237,62 @@ def _stored_bodies(
     to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
     ``support_band`` under the top (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]:
     the top's points. The stuck points in columns of the case's frame (``_frame_columns``: its sides and
-    back) are left to the case, and the rest parted at their concave creases (``ScanPoints.concave``: a
-    body meets the case's back and the board over it at a concave corner; its own faces meet at convex
-    ones).
-    A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
-    within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). A body
-    is stored when it has ``min_segment_points`` points, its centre lies over the top's seen bounds, the
-    top is seen beyond it on ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness``
-    thick every way, is not upright (``_stored_upright``: a row of books standing in a bookcase is the
-    bookcase's) and has a board of the region over ``stored_board_share`` of its footprint
-    (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's own). Returns the
-    points [n] of each body."""
+    back) are left to the case, and the rest parted into bodies twice (``_parted_bodies``): first at their
+    concave creases (``ScanPoints.concave``: a body meets the case's back and the board over it at a
+    concave corner; its own faces meet at convex ones), then what is left also where the colour changes
+    between the case's own (``case_tint`` off the shelf's median colour) and another: where the fused
+    surface rounds a corner, no crease parts a stack from the panel it stands flush with, but its colour
+    does. Creases come first because a book of the case's colour in a stack is parted from the other
+    books by colour and stays with the case. Returns the points [n] of each body."""
     # the case's sides and back rise unbroken from the shelf: taken off the stuck points, they no longer
     # join the bodies they touch (a stack flush with a side panel or against the back)
     stuck = stuck & ~_frame_columns(sp.points, stuck, h, cfg)
     if int(stuck.sum()) < cfg.min_segment_points:
         return []
+    case = sp.points[mine]
+    bodies = _parted_bodies(sp, stuck, far_below, h, slab, ~sp.concave, None, case, case, cfg)
+    left = stuck.copy()
+    for body in bodies:
+        left &= ~body
+    if int(left.sum()) < cfg.min_segment_points:
+        return bodies
+    # the case's wood or paint, lit or shaded, against the colours of what is stored on it
+    own = np.zeros(len(mine), bool)
+    own[mine] = _hue_rest(sp.colours[mine], np.median(sp.colours[slab], axis=0))[1] < cfg.case_tint
+    keep = ~sp.concave & (own[sp.edges[:, 0]] == own[sp.edges[:, 1]])
+    return bodies + _parted_bodies(sp, left, far_below, h, slab, keep, own, case, sp.points[mine & own], cfg)
+
+
+def _parted_bodies(
+    sp: ScanPoints,
+    stuck: NDArray[np.bool_],
+    far_below: NDArray[np.bool_],
+    h: float,
+    slab: NDArray[np.bool_],
+    keep: NDArray[np.bool_],
+    own: NDArray[np.bool_] | None,
+    case: NDArray,
+    boards: NDArray,
+    cfg: SegmentConfig,
+) -> list[NDArray[np.bool_]]:
+    """The bodies the ``stuck`` points [n] over a top at height ``h`` (m) part into over the point edges
+    ``keep`` [e] (see ``_stored_bodies``; ``far_below``, ``slab`` as there).
+
+    A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
+    within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). With
+    ``own`` [n] (each point of the case's colour or not, the parts cut where it changes), a part of the
+    other colour class joins only when it ends ``frame_column_rise`` over the top at most (a book of the
+    case's colour in a stack, not a piece of the frame over it). A body is stored when it has
+    ``min_segment_points`` points, its centre lies over the top's seen bounds, the top is seen beyond it on
+    ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every way, is not
+    upright (``_stored_upright`` among the case's points ``case`` [k, 3]: a row of books standing in a
+    bookcase is the bookcase's) and has a board among ``boards`` [b, 3] over ``stored_board_share`` of its
+    footprint (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's own; parted
+    by colour, only the case's colour is a board: a table seen over a chair's seat in one region is none).
+    Returns the points [n] of each body."""
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
-    k, part = _point_parts(sp.edges, stuck, ~sp.concave)
+    k, part = _point_parts(sp.edges, stuck, keep)
     sub = part[stuck]
     p = sp.points[stuck]
     lo = np.full((k, 3), np.inf)
@@ -1231,13 +1304,15 @@ def _stored_bodies(
     held[part[i0[stuck[i0] & far_below[i1]]]] = True
     held[part[i1[stuck[i1] & far_below[i0]]]] = True
     cross = inner & (part[i0] != part[i1])
+    colour = np.zeros(k, bool)
+    if own is not None:
+        colour[sub] = own[stuck]  # one class a part: ``keep`` cuts where it changes
     neighbours: dict[int, set[int]] = {}
     for a, b in zip(part[i0[cross]].tolist(), part[i1[cross]].tolist(), strict=True):
         neighbours.setdefault(a, set()).add(b)
         neighbours.setdefault(b, set()).add(a)
     top = sp.points[slab, :2]
     tlo, thi = top.min(axis=0), top.max(axis=0)
-    case = sp.points[mine]
     seeds = np.flatnonzero(~held & (lo[:, 2] <= h + cfg.support_band) & (count >= cfg.min_contacts))
     taken = held.copy()
     bodies = []
@@ -1252,7 +1327,10 @@ def _stored_bodies(
                 for t in neighbours.get(c, ()):
                     if taken[t] or t in body:
                         continue
-                    if np.all(lo[t, :2] >= blo[:2] - cfg.top_margin) and np.all(hi[t, :2] <= bhi[:2] + cfg.top_margin):
+                    within = np.all(lo[t, :2] >= blo[:2] - cfg.top_margin) & np.all(
+                        hi[t, :2] <= bhi[:2] + cfg.top_margin
+                    )
+                    if within and (colour[t] == colour[s] or hi[t, 2] <= h + cfg.frame_column_rise):
                         body.append(t)
                         grown.append(t)
                         blo, bhi = np.minimum(blo, lo[t]), np.maximum(bhi, hi[t])
@@ -1268,9 +1346,11 @@ def _stored_bodies(
         ):
             continue  # beside the shelf, the shelf seen nowhere beyond it, or spanned both ways
         points = np.isin(part, body)
+        if own is not None and _case_books(sp, points, bhi[2] - blo[2], np.min(bhi[:2] - blo[:2]), cfg):
+            continue  # parted by colour alone, upright or a row: the case's own books, a piece of its frame
         if _stored_upright(case, blo, bhi, cfg) and not _in_layers(sp, points, cfg):
             continue  # books standing in a row: the bookcase's own
-        if _board_share(case, blo, bhi, cfg) < cfg.stored_board_share:
+        if _board_share(boards, blo, bhi, cfg) < cfg.stored_board_share:
             continue  # nothing of the case over it: a cushion against a sofa's back
         taken[body] = True
         bodies.append(points)
@@ -1726,12 +1806,37 @@ def _in_layers(sp: ScanPoints, body: NDArray[np.bool_], cfg: SegmentConfig) -> b
     """Whether a body's points ``body`` [n] change colour across horizontal seams: ``layer_share`` or more of
     the point edges within it that step ``layer_colour_step`` in colour run more up than across, over
     ``layer_min_edges`` of them (books lying flat; the seams of books standing upright are vertical)."""
+    seams, rising = _seams(sp, body, cfg)
+    return seams >= cfg.layer_min_edges and rising >= cfg.layer_share
+
+
+def _case_books(sp: ScanPoints, body: NDArray[np.bool_], tall: float, narrow: float, cfg: SegmentConfig) -> bool:
+    """Whether a body parted from its case by colour alone, ``tall`` over its shelf and ``narrow`` across its
+    narrower side (m), is the case's own: its colour seams in rows (``_in_rows``) and ``row_min_height``
+    tall (books standing upright), or taller than ``narrow`` and not in layers (``_in_layers``: a tall
+    stack lies in layers). ``body`` [n]: its points."""
+    if tall >= cfg.row_min_height and _in_rows(sp, body, cfg):
+        return True
+    return tall >= narrow and not _in_layers(sp, body, cfg)
+
+
+def _in_rows(sp: ScanPoints, body: NDArray[np.bool_], cfg: SegmentConfig) -> bool:
+    """Whether a body's points ``body`` [n] change colour across vertical seams: over ``layer_min_edges`` point
+    edges within it step ``layer_colour_step`` in colour and fewer than ``layer_share`` of them run more up
+    than across (books standing upright in a row; a stack of two books shows too few seams to tell)."""
+    seams, rising = _seams(sp, body, cfg)
+    return seams >= cfg.layer_min_edges and rising < cfg.layer_share
+
+
+def _seams(sp: ScanPoints, body: NDArray[np.bool_], cfg: SegmentConfig) -> tuple[int, float]:
+    """How many point edges within a body's points ``body`` [n] step ``layer_colour_step`` in colour, and
+    the share of them that run more up than across (0 when none)."""
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     seam = body[i0] & body[i1] & (sp.colour_step >= cfg.layer_colour_step)
-    if int(seam.sum()) < cfg.layer_min_edges:
-        return False
+    if not seam.any():
+        return 0, 0.0
     d = sp.points[i1[seam]] - sp.points[i0[seam]]
-    return bool((np.abs(d[:, 2]) > np.linalg.norm(d[:, :2], axis=1)).mean() >= cfg.layer_share)
+    return int(seam.sum()), float((np.abs(d[:, 2]) > np.linalg.norm(d[:, :2], axis=1)).mean())
 
 
 def _stored_upright(big: NDArray, lo: NDArray, hi: NDArray, cfg: SegmentConfig) -> bool:

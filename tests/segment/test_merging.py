@@ -378,12 +378,20 @@ def _faces(lo: tuple[float, float, float], hi: tuple[float, float, float], norma
     return p, np.tile(np.asarray(normal, float), (len(p), 1))
 
 
-def _surfaces(faces: list[tuple[np.ndarray, np.ndarray]]) -> ScanPoints:
-    """ScanPoints of oriented faces, one superpoint each, coloured alike (geometry alone parts them)."""
+def _surfaces(
+    faces: list[tuple[np.ndarray, np.ndarray]], colours: list[tuple[float, float, float]] | None = None
+) -> ScanPoints:
+    """ScanPoints of oriented faces, one superpoint each, coloured alike (geometry alone parts them) or each
+    face in its colour of ``colours`` (RGB in [0, 1])."""
     pts = np.concatenate([f[0] for f in faces])
     nrm = np.concatenate([f[1] for f in faces])
     label = np.concatenate([np.full(len(f[0]), i) for i, f in enumerate(faces)])
-    col = np.full((len(pts), 3), 0.5)
+    if colours is None:
+        col = np.full((len(pts), 3), 0.5)
+    else:
+        col = np.concatenate(
+            [np.tile(np.asarray(c, float), (len(f[0]), 1)) for f, c in zip(faces, colours, strict=True)]
+        )
     edges = point_graph(pts, STEP * 1.75)
     _, concave, step = edge_weights(pts, nrm, col, edges, 1.0)
     g = superpoint_graph(pts, nrm, col, label, edges, concave, step)
@@ -441,6 +449,38 @@ def test_a_stack_against_a_bookcases_back_is_split_off_a_cushion_with_nothing_ov
             assert len(np.unique(point_region[stack & above])) == 1 and (point_region[stack & above] != 1).all()
             assert (point_region[~stack] == 1).all()
         else:
+            assert split == 0 and (point_region == 1).all()
+
+
+def test_a_stack_of_another_colour_is_parted_from_its_case_where_no_crease_parts_it_one_of_the_cases_is_not():
+    from rescene_core.segment.geometric import _hue_rest, split_bodies_on_tops
+
+    wood = np.array([0.58, 0.47, 0.37])
+    k, rest = _hue_rest(np.array([wood, 0.6 * wood, [0.2, 0.3, 0.6]]), wood)
+    assert np.allclose(k[:2], [1.0, 0.6]) and np.allclose(rest[:2], 0.0) and rest[2] > CFG.case_tint
+
+    faces, n_stack = _bookcase(board_over_stack=True)
+    n_faces_stack = 4  # the stack's faces come first, then the case's: sides, back, plinth, shelf, boards ...
+    rows = {7, 8, 9}  # ... and the upright books' spines, tops and end
+    # the back panel seen in part, broken where noise left holes: no column of it counts as the frame
+    cfg = CFG.model_copy(update={"frame_column_least": 10**6})
+    for stack_colour, split_off in (((0.2, 0.3, 0.6), True), (tuple(0.7 * wood), False)):
+        colours = [stack_colour] * n_faces_stack
+        colours += [
+            (0.8, 0.2, 0.2) if i - n_faces_stack in rows else tuple(wood) for i in range(n_faces_stack, len(faces))
+        ]
+        sp = _surfaces(faces, colours)
+        sp.concave[:] = False  # the fused surface rounded every corner: no crease parts the stack from the back
+        region = np.ones(sp.graph.size, np.int64)
+        sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), cfg)
+        point_region = region2[sp2.graph.label]
+        stack = np.arange(len(sp.points)) < n_stack
+        above = sp.points[:, 2] > 0.075 + CFG.top_clearance
+        if split_off:  # a stack of books; the row of upright books, of another colour too, stays the case's
+            assert split == 1
+            assert len(np.unique(point_region[stack & above])) == 1 and (point_region[stack & above] != 1).all()
+            assert (point_region[~stack] == 1).all()
+        else:  # of the case's colour, shaded: nothing parts it from the case
             assert split == 0 and (point_region == 1).all()
 
 
@@ -561,7 +601,7 @@ def _stacked(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np
     return sp.points, region2[sp2.graph.label], split
 
 
-def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_narrowing_up_is_not():
+def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_or_a_plants_crown_is_not():
     # a stack 25 cm square and 10 cm tall on a desk (its foot at 0.75 m), seen from the front and the right,
     # with a stack 15 cm square on it: the ring of the lower one's top it leaves is 5 cm wide
     lower = [
@@ -582,10 +622,30 @@ def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_narrowing_up_is_n
     assert len(np.unique(region[:n_lower])) == 1 and len(np.unique(region[n_lower:])) == 1
     assert region[0] != region[-1]
 
+    # a stack 21 cm square on it steps in by 0.84 and is split too; one 23 cm square, 0.92, is a book of the
+    # same stack (a stack's books are 0.8-1.0 as wide as its widest)
+    for side, apart in ((0.21, True), (0.23, False)):
+        a, b = 0.125 - side / 2, 0.125 + side / 2
+        ring = ~np.all((top[0][:, :2] > a - 0.01) & (top[0][:, :2] < b + 0.01), axis=1)
+        upper = [
+            _faces((a, a, 0.875), (b, a, 0.95), (0, -1, 0)),
+            _faces((b, a, 0.875), (b, b, 0.95), (1, 0, 0)),
+            _up((a, a, 0.975), (b, b, 0.975)),
+        ]
+        _, _, split = _stacked([*lower[:2], (top[0][ring], top[1][ring]), *upper])
+        assert split == int(apart), side
+
     # a table lamp: a base disc, a stem, and a shade 30 cm wide at its foot narrowing to 20 cm at its top
     lamp = [_ring(0.08, 0.75 + k * STEP) for k in range(2)] + [_ring(0.01, 0.8 + k * STEP) for k in range(6)]
     lamp += [_ring(0.15 - 0.05 * k / 8, 0.95 + k * STEP, 0.25) for k in range(9)]
     _, region, split = _stacked(lamp)
+    assert split == 0 and (region == 1).all()
+
+    # a potted plant on a table: foliage 30 cm across over a pot 12 cm across, its crown narrowing to 22 cm;
+    # the cut at the crown would leave a lower body flaring out upward from its foot
+    plant = [_ring(0.06, 0.75 + k * STEP) for k in range(4)] + [_ring(0.15, 0.85 + k * STEP) for k in range(5)]
+    plant += [_ring(0.11, 0.975 + k * STEP, 0.5) for k in range(3)]
+    _, region, split = _stacked(plant)
     assert split == 0 and (region == 1).all()
 
     # the same stacks on the floor stay whole (a potted plant's foliage over its pot narrows up too)
@@ -645,7 +705,7 @@ def test_a_case_side_rising_unbroken_from_its_shelf_is_its_frame_a_stack_under_t
 
 
 def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_across_vertical_ones():
-    from rescene_core.segment.geometric import _in_layers
+    from rescene_core.segment.geometric import _in_layers, _in_rows
 
     rng = np.random.default_rng(2)
     colours = rng.uniform(0.1, 0.9, (12, 3))
@@ -665,6 +725,9 @@ def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_a
     assert _in_layers(stack, np.ones(len(stack.points), bool), CFG)
     assert not _in_layers(row, np.ones(len(row.points), bool), CFG)
     assert not _in_layers(stack, stack.points[:, 2] < 0.035, CFG)  # one book: no seams to count
+    assert _in_rows(row, np.ones(len(row.points), bool), CFG)
+    assert not _in_rows(stack, np.ones(len(stack.points), bool), CFG)
+    assert not _in_rows(row, row.points[:, 0] < 0.035, CFG)  # one book standing: no seams to count either
 
 
 def test_a_desk_joined_to_a_stretch_of_wall_the_plane_left_is_parted_from_it_a_bulge_of_the_wall_is_not():
