@@ -1250,7 +1250,7 @@ def _stored_bodies(
     if int(stuck.sum()) < cfg.min_segment_points:
         return []
     case = sp.points[mine]
-    bodies = _parted_bodies(sp, stuck, far_below, h, slab, ~sp.concave, None, case, case, cfg)
+    bodies = _parted_bodies(sp, stuck, far_below, h, slab, case, cfg)
     left = stuck.copy()
     for body in bodies:
         left &= ~body
@@ -1259,8 +1259,7 @@ def _stored_bodies(
     # the case's wood or paint, lit or shaded, against the colours of what is stored on it
     own = np.zeros(len(mine), bool)
     own[mine] = _hue_rest(sp.colours[mine], np.median(sp.colours[slab], axis=0))[1] < cfg.case_tint
-    keep = ~sp.concave & (own[sp.edges[:, 0]] == own[sp.edges[:, 1]])
-    return bodies + _parted_bodies(sp, left, far_below, h, slab, keep, own, case, sp.points[mine & own], cfg)
+    return bodies + _parted_bodies(sp, left, far_below, h, slab, case, cfg, own)
 
 
 def _parted_bodies(
@@ -1269,29 +1268,30 @@ def _parted_bodies(
     far_below: NDArray[np.bool_],
     h: float,
     slab: NDArray[np.bool_],
-    keep: NDArray[np.bool_],
-    own: NDArray[np.bool_] | None,
     case: NDArray,
-    boards: NDArray,
     cfg: SegmentConfig,
+    own: NDArray[np.bool_] | None = None,
 ) -> list[NDArray[np.bool_]]:
-    """The bodies the ``stuck`` points [n] over a top at height ``h`` (m) part into over the point edges
-    ``keep`` [e] (see ``_stored_bodies``; ``far_below``, ``slab`` as there).
+    """The bodies the ``stuck`` points [n] over a top at height ``h`` (m) part into at the concave creases
+    and, with ``own`` [n] (each point of the case's colour or not), where that changes too (see
+    ``_stored_bodies``; ``far_below``, ``slab`` as there; ``case`` [k, 3]: the case's points).
 
     A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
-    within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). With
-    ``own`` [n] (each point of the case's colour or not, the parts cut where it changes), a part of the
-    other colour class joins only when it ends ``frame_column_rise`` over the top at most (a book of the
-    case's colour in a stack, not a piece of the frame over it). A body is stored when it has
+    within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). Parted
+    by colour, a part of the other colour class joins only when it ends ``frame_column_rise`` over the top
+    at most (a book of the case's colour in a stack, not a piece of the frame over it). A body is stored
+    when it has
     ``min_segment_points`` points, its centre lies over the top's seen bounds, the top is seen beyond it on
     ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every way, is not
-    upright (``_stored_upright`` among the case's points ``case`` [k, 3]: a row of books standing in a
-    bookcase is the bookcase's) and has a board among ``boards`` [b, 3] over ``stored_board_share`` of its
-    footprint (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's own; parted
-    by colour, only the case's colour is a board: a table seen over a chair's seat in one region is none).
-    Returns the points [n] of each body."""
+    upright (``_stored_upright``: a row of books standing in a bookcase is the bookcase's), nor, parted by
+    colour, the case's own books (``_case_books``), and has a board of the case over ``stored_board_share``
+    of its footprint (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's
+    own; parted by colour, only the case's colour is a board: a table seen over a chair's seat in one region
+    is none). Returns the points [n] of each body."""
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
+    keep = ~sp.concave if own is None else ~sp.concave & (own[i0] == own[i1])
+    boards = case if own is None else sp.points[own]  # ``own`` holds the case's points alone
     k, part = _point_parts(sp.edges, stuck, keep)
     sub = part[stuck]
     p = sp.points[stuck]
