@@ -1280,14 +1280,13 @@ def _parted_bodies(
     within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). Parted
     by colour, a part of the other colour class joins only when it ends ``frame_column_rise`` over the top
     at most (a book of the case's colour in a stack, not a piece of the frame over it). A body is stored
-    when it has
-    ``min_segment_points`` points, its centre lies over the top's seen bounds, the top is seen beyond it on
-    ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every way, is not
-    upright (``_stored_upright``: a row of books standing in a bookcase is the bookcase's), nor, parted by
-    colour, the case's own books (``_case_books``), and has a board of the case over ``stored_board_share``
-    of its footprint (``_board_share``; what has nothing over it, a sofa's back cushion, is the piece's
-    own; parted by colour, only the case's colour is a board: a table seen over a chair's seat in one region
-    is none). Returns the points [n] of each body."""
+    when it has ``min_segment_points`` points, its centre lies over the top's seen bounds, the top is seen
+    beyond it on ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every
+    way, is not upright (``_stored_upright``: a row of books standing in a bookcase is the bookcase's),
+    nor, parted by colour, the case's own books (``_case_books``), and has a board of the case over
+    ``stored_board_share`` of its footprint (``_board_share``; what has nothing over it, a sofa's back
+    cushion, is the piece's own; parted by colour, only the case's colour is a board: a table seen over a
+    chair's seat in one region is none). Returns the points [n] of each body."""
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
     keep = ~sp.concave if own is None else ~sp.concave & (own[i0] == own[i1])
@@ -1815,9 +1814,10 @@ def _case_books(sp: ScanPoints, body: NDArray[np.bool_], tall: float, narrow: fl
     narrower side (m), is the case's own: its colour seams in rows (``_in_rows``) and ``row_min_height``
     tall (books standing upright), or taller than ``narrow`` and not in layers (``_in_layers``: a tall
     stack lies in layers). ``body`` [n]: its points."""
-    if tall >= cfg.row_min_height and _in_rows(sp, body, cfg):
-        return True
-    return tall >= narrow and not _in_layers(sp, body, cfg)
+    seams, rising = _seams(sp, body, cfg)  # once for both tests
+    counted = seams >= cfg.layer_min_edges
+    in_rows, in_layers = counted and rising < cfg.layer_share, counted and rising >= cfg.layer_share
+    return (tall >= cfg.row_min_height and in_rows) or (tall >= narrow and not in_layers)
 
 
 def _in_rows(sp: ScanPoints, body: NDArray[np.bool_], cfg: SegmentConfig) -> bool:
