@@ -2,10 +2,10 @@
 throwaway directory (shared by every test and subprocess of the session, so a mesh is decomposed once),
 so tests never touch a user's profile or ~/.cache and run as on a fresh machine.
 
-Tests that need a Prefect API share one real `prefect server start` (``prefect_api``), started in the
-background once the tests are collected and stopped after the last of them: starting a server (imports
-and database migrations) costs as much as a small test, and a command-line run without one would start a
-temporary server of its own."""
+Tests that need a Prefect API share one real `prefect server start` (``prefect_api``) per test process
+(`make test` runs two, pytest-xdist), started in the background once the tests are collected and stopped
+after the last of them: starting a server (imports and database migrations) costs as much as a small test,
+and a command-line run without one would start a temporary server of its own."""
 
 from __future__ import annotations
 
