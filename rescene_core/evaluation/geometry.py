@@ -356,7 +356,7 @@ def fuse_depth(frames: Callable[[], Iterable[tuple]], config: GeometryConfig) ->
 
     (A TSDF would be the usual choice; with open3d 0.20.0 the legacy ``ScalableTSDFVolume`` integrates
     nothing and the dense ``UniformTSDFVolume`` takes 16 s to allocate one room at 2 cm. The tensor
-    ``VoxelBlockGrid`` works, see ``rescene_core.segment.geometric.tsdf_mesh``, and is not used here yet.)"""
+    ``VoxelBlockGrid`` works, see ``rescene_core.segment.geometric.fusion.tsdf_mesh``, and is not used here yet.)"""
 
     def points() -> Iterator[PointSet]:
         for depth, camera, *labels in frames():

@@ -30,14 +30,14 @@ from rescene_core.segment.geometric import (
     ScanPoints,
     SegmentConfig,
     SegmentResult,
-    _absorb_small,
-    _filter_regions,
-    _finish,
     fuse_scan,
     points_by_region,
     regroup,
     wall_superpoints,
 )
+from rescene_core.segment.geometric.filter import _filter_regions
+from rescene_core.segment.geometric.joins import _absorb_small
+from rescene_core.segment.geometric.result import _finish
 from rescene_core.segment.lift import FrameCounts, frame_counts, votes_from_counts
 
 

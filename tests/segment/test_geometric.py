@@ -17,7 +17,8 @@ from rescene_core.capture.importers.layouts import write_rgbd
 from rescene_core.capture.synth import make_scene
 from rescene_core.segment import SegmentConfig, SegmentError, segment_geometric
 from rescene_core.segment.evaluate import instance_scores, mask_iou_table, synth_object_sizes
-from rescene_core.segment.geometric import ScanPoints, _structure, scan_points, wall_superpoints
+from rescene_core.segment.geometric import ScanPoints, scan_points, wall_superpoints
+from rescene_core.segment.geometric.structure import _structure
 
 
 @pytest.fixture(scope="module")
@@ -231,7 +232,7 @@ def test_the_inner_walls_of_an_l_shaped_room_are_walls_a_face_on_a_wall_is_not()
 
 
 def test_a_walls_stretch_loses_the_ends_with_the_room_behind_a_face_with_the_room_behind_its_middle_goes():
-    from rescene_core.segment.geometric import _trim_overhang
+    from rescene_core.segment.geometric.structure import _trim_overhang
 
     cfg = SegmentConfig()
     rng = np.random.default_rng(0)

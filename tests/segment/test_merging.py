@@ -5,16 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rescene_core.segment.geometric import (
-    ScanPoints,
-    SegmentConfig,
-    _attach_legs,
-    _faces_wall,
-    _join_bedding,
-    _join_stems,
-    _rests_on,
-    _under_board,
-)
+from rescene_core.segment.geometric import ScanPoints, SegmentConfig
+from rescene_core.segment.geometric.joins import _attach_legs, _join_bedding, _join_stems
+from rescene_core.segment.geometric.structure import _faces_wall
+from rescene_core.segment.geometric.support import _rests_on, _under_board
 from rescene_core.segment.superpoints import edge_weights, point_graph, superpoint_graph
 
 STEP = 0.025
@@ -66,7 +60,7 @@ def test_fused_legs_under_a_table_top_join_it_and_a_chair_beside_it_does_not():
 
 
 def test_a_desks_back_rail_fused_with_its_wall_joins_the_desk_a_bin_under_it_does_not():
-    from rescene_core.segment.geometric import _attach_backs
+    from rescene_core.segment.geometric.joins import _attach_backs
 
     planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]
     # a desk against the wall y = 0: its top 1.2 by 0.6 m at 0.75 m, front legs, and its back rail and leg
@@ -85,7 +79,7 @@ def test_a_desks_back_rail_fused_with_its_wall_joins_the_desk_a_bin_under_it_doe
 
 
 def test_a_headboard_against_the_wall_joins_its_bed_a_mirror_beside_it_or_behind_a_desk_does_not():
-    from rescene_core.segment.geometric import _attach_backs
+    from rescene_core.segment.geometric.joins import _attach_backs
 
     planes = [{"kind": "floor", "id": 1}, {"kind": "wall", "id": 2, "normal": [0.0, 1.0, 0.0], "offset": 0.0}]
     headboard = _box((0.0, 0.0, 0.35), (1.6, 0.075, 1.1))  # 7.5 cm thick against the wall y = 0, seen over 35 cm
@@ -117,7 +111,8 @@ def test_a_hanging_region_faces_the_room_as_its_wall_does():
 
 
 def test_upright_books_under_a_shelf_board_are_stored_a_flat_stack_or_a_monitor_is_not():
-    from rescene_core.segment.geometric import SegmentConfig, _stored_upright
+    from rescene_core.segment.geometric import SegmentConfig
+    from rescene_core.segment.geometric.support import _stored_upright
 
     cfg = SegmentConfig()
     rng = np.random.default_rng(0)
@@ -133,7 +128,7 @@ def test_upright_books_under_a_shelf_board_are_stored_a_flat_stack_or_a_monitor_
 
 
 def test_a_lamp_pole_reaching_into_its_open_shade_finds_the_shade():
-    from rescene_core.segment.geometric import _hollow_over
+    from rescene_core.segment.geometric.joins import _hollow_over
 
     # regions: 1 the pole (3 cm wide, up to 1.30 m), 2 the shade (1.25-1.55 m, 40 cm wide, hollow), 3 a
     # bookcase beside it from the floor, 4 a table whose top lies far under the pole's end
@@ -146,7 +141,7 @@ def test_a_lamp_pole_reaching_into_its_open_shade_finds_the_shade():
 
 
 def test_a_monitor_on_a_desk_is_split_off_at_the_top_and_the_desks_own_back_is_not():
-    from rescene_core.segment.geometric import split_bodies_on_tops
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
     top = _box((0.0, 0.0, 0.75), (1.2, 0.6, 0.75))
     legs = [_box((x, y, 0.04), (x + 0.05, y + 0.05, 0.725)) for x in (0.0, 1.15) for y in (0.0, 0.55)]
@@ -167,7 +162,7 @@ def test_a_monitor_on_a_desk_is_split_off_at_the_top_and_the_desks_own_back_is_n
 
 
 def test_a_lamp_whose_shade_overhangs_a_small_nightstand_is_split_off_at_its_foot():
-    from rescene_core.segment.geometric import split_bodies_on_tops
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
     # a nightstand 44 by 34 cm, its top at 0.56 m; a lamp's base disc (16 cm) and stem in its middle, the
     # shade (30 cm) reaching to within 2-4 cm of the top's edges; no crease or colour step parts the base
@@ -187,7 +182,7 @@ def test_a_lamp_whose_shade_overhangs_a_small_nightstand_is_split_off_at_its_foo
 
 
 def test_a_stack_as_deep_as_its_shelf_is_held_by_it_a_back_or_a_divider_is_not():
-    from rescene_core.segment.geometric import _held_by_top
+    from rescene_core.segment.geometric.support import _held_by_top
 
     # a bookcase shelf 64 cm wide and 27 cm deep at z = 0.5, seen around what stands on it
     shelf = _box((0.0, 0.0, 0.5), (0.64, 0.27, 0.5))[:, :2]
@@ -308,7 +303,7 @@ def test_after_the_splits_a_lamps_base_split_off_joins_its_shade_a_stack_split_o
 
 
 def test_a_row_of_books_left_apart_joins_its_bookcase_a_flat_stack_or_a_row_with_no_board_over_it_does_not():
-    from rescene_core.segment.geometric import _join_stored_rows
+    from rescene_core.segment.geometric.cases import _join_stored_rows
 
     def case(board: bool) -> list[tuple[np.ndarray, np.ndarray]]:
         faces = [
@@ -434,7 +429,7 @@ def _bookcase(board_over_stack: bool) -> tuple[list[tuple[np.ndarray, np.ndarray
 
 
 def test_a_stack_against_a_bookcases_back_is_split_off_a_cushion_with_nothing_over_it_is_not():
-    from rescene_core.segment.geometric import split_bodies_on_tops
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
     for board_over_stack in (True, False):
         faces, n_stack = _bookcase(board_over_stack)
@@ -453,7 +448,8 @@ def test_a_stack_against_a_bookcases_back_is_split_off_a_cushion_with_nothing_ov
 
 
 def test_a_stack_of_another_colour_is_parted_from_its_case_where_no_crease_parts_it_one_of_the_cases_is_not():
-    from rescene_core.segment.geometric import _hue_rest, split_bodies_on_tops
+    from rescene_core.segment.geometric.colour import _hue_rest
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
     wood = np.array([0.58, 0.47, 0.37])
     k, rest = _hue_rest(np.array([wood, 0.6 * wood, [0.2, 0.3, 0.6]]), wood)
@@ -494,7 +490,7 @@ def _side(lo: tuple[float, float, float], hi: tuple[float, float, float]):
 
 def _split(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, int]:
     """The region of each point after ``split_bodies_on_tops`` on one region holding all ``faces``."""
-    from rescene_core.segment.geometric import split_bodies_on_tops
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
     sp = _surfaces(faces)
     region = np.ones(sp.graph.size, np.int64)
@@ -568,7 +564,7 @@ def test_a_stack_at_a_shelfs_hidden_end_under_the_next_board_is_split_off_the_ca
 
 
 def test_a_board_covers_what_is_stored_under_it_a_picture_over_a_headboard_does_not():
-    from rescene_core.segment.geometric import _board_share
+    from rescene_core.segment.geometric.support import _board_share
 
     lo, hi = np.array([0.5, 0.0, 0.9]), np.array([0.7, 0.25, 1.0])  # a book stack on a shelf
     board = _box((0.0, 0.0, 1.3), (0.8, 0.3, 1.3))
@@ -593,7 +589,7 @@ def _ring(r: float, z: float, normal_z: float = 0.0, cx: float = 0.1, cy: float 
 
 def _stacked(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, int]:
     """The points [n, 3], and the region of each after ``split_stacked`` on one region holding all ``faces``."""
-    from rescene_core.segment.geometric import split_stacked
+    from rescene_core.segment.geometric.stacks import split_stacked
 
     sp = _surfaces(faces)
     region = np.ones(sp.graph.size, np.int64)
@@ -654,7 +650,7 @@ def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_or_a_plants_crown
 
 
 def test_a_wall_shelfs_bracket_joins_the_board_holding_the_other_one_a_picture_under_it_does_not():
-    from rescene_core.segment.geometric import _join_brackets
+    from rescene_core.segment.geometric.walls import _join_brackets
 
     # a wall shelf on the wall y = 0: a board 0.8 m wide and 0.25 m deep at 1.3-1.35 m on two brackets 22 cm
     # deep and 10 cm tall; the board's region already holds the left bracket, so its lowest point is the
@@ -685,7 +681,7 @@ def test_a_wall_shelfs_bracket_joins_the_board_holding_the_other_one_a_picture_u
 
 
 def test_a_case_side_rising_unbroken_from_its_shelf_is_its_frame_a_stack_under_the_next_board_is_not():
-    from rescene_core.segment.geometric import _frame_columns
+    from rescene_core.segment.geometric.cases import _frame_columns
 
     h = 0.5  # the shelf's top
     side = _box((0.0, 0.0, h + 0.02), (0.0, 0.3, h + 0.9))  # a side panel's inner face, on past the next board
@@ -705,7 +701,7 @@ def test_a_case_side_rising_unbroken_from_its_shelf_is_its_frame_a_stack_under_t
 
 
 def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_across_vertical_ones():
-    from rescene_core.segment.geometric import _in_layers, _in_rows
+    from rescene_core.segment.geometric.cases import _in_layers, _in_rows
 
     rng = np.random.default_rng(2)
     colours = rng.uniform(0.1, 0.9, (12, 3))
@@ -731,7 +727,7 @@ def test_books_lying_flat_change_colour_across_horizontal_seams_books_standing_a
 
 
 def test_a_desk_joined_to_a_stretch_of_wall_the_plane_left_is_parted_from_it_a_bulge_of_the_wall_is_not():
-    from rescene_core.segment.geometric import part_from_wall_stretch
+    from rescene_core.segment.geometric.walls import part_from_wall_stretch
 
     def scan(wall_height: float) -> tuple[ScanPoints, np.ndarray]:
         # a stretch of the wall y = 0 fused 3 cm in front of its plane, a bulge of it 8 cm out, and a desk
@@ -775,7 +771,7 @@ def _on_wall(parts: list[tuple[np.ndarray, object, int, int]]) -> ScanPoints:
 
 
 def test_the_walls_paint_and_its_shadow_in_a_wall_shelfs_region_are_taken_off_a_picture_on_it_is_not():
-    from rescene_core.segment.geometric import take_off_wall_paint
+    from rescene_core.segment.geometric.walls import take_off_wall_paint
 
     wall = _box((0.0, 0.0, 0.5), (2.0, 0.0, 2.0))  # the wall y = 0, its paint
     under = (wall[:, 0] >= 0.5) & (wall[:, 0] <= 1.3) & (wall[:, 2] >= 1.3) & (wall[:, 2] < 1.5)
