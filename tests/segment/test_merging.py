@@ -612,7 +612,8 @@ def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_or_a_plants_crown
         _faces((0.2, 0.05, 0.875), (0.2, 0.2, 0.95), (1, 0, 0)),
         _up((0.05, 0.05, 0.975), (0.2, 0.2, 0.975)),
     ]
-    p, region, split = _stacked(lower + upper)
+    stack = lower + upper
+    p, region, split = _stacked(stack)
     n_lower = sum(len(f[0]) for f in lower)
     assert split == 1
     assert len(np.unique(region[:n_lower])) == 1 and len(np.unique(region[n_lower:])) == 1
@@ -644,9 +645,11 @@ def test_a_stack_on_a_stack_is_split_at_its_step_a_lamps_shade_or_a_plants_crown
     _, region, split = _stacked(plant)
     assert split == 0 and (region == 1).all()
 
-    # the same stacks on the floor stay whole (a potted plant's foliage over its pot narrows up too)
-    _, _, split = _stacked([(f[0] - [0.0, 0.0, 0.75], f[1]) for f in lower + upper])
-    assert split == 0
+    # on the floor: the same stacks are split as on the desk, the same plant stays whole
+    _, region, split = _stacked([(f[0] - [0.0, 0.0, 0.75], f[1]) for f in stack])
+    assert split == 1 and region[0] != region[-1]
+    _, region, split = _stacked([(f[0] - [0.0, 0.0, 0.75], f[1]) for f in plant])
+    assert split == 0 and (region == 1).all()
 
 
 def test_a_wall_shelfs_bracket_joins_the_board_holding_the_other_one_a_picture_under_it_does_not():

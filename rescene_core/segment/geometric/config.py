@@ -252,12 +252,9 @@ class SegmentConfig(BaseModel):
     bracket_min_depth: float = 0.1
     """A slender region hanging under a broader one joins it as its bracket when it reaches at least this far
     out from its wall (m) (a wall shelf's bracket: 16-22 cm; a picture or a mirror lies flat on the wall)."""
-    stacked_min_height: float = 0.15
-    """A region whose lowest point is at least this high (m), resting on something (a potted plant's
-    foliage on the floor narrows upward too), ..."""
     stacked_max_width: float = 0.45
-    """... at most this wide either way (m) (a book stack is 15-28 cm; with the edge of the shelf or table it
-    rests on, up to 40 cm) and at least ``min_segment_extent`` both ways ..."""
+    """A region at most this wide either way (m), on the floor or over it (a book stack is 15-28 cm; with the
+    edge of the shelf or table it rests on, up to 40 cm), and at least ``min_segment_extent`` both ways ..."""
     stacked_min_part: float = 0.03
     """... is two bodies, one resting on the other (a book stack on a book stack), when it can be cut at a
     height at least this far (m) over its foot and under its top (two books of 1.8 cm) ..."""

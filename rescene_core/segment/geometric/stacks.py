@@ -16,8 +16,9 @@ def split_stacked(
     """A body resting on a narrower one, both small, is split off it at the height where the region
     narrows (``_stack_cut``): a book stack on a book stack. The upper stack's ring of the lower one's top
     is too narrow and too little seen to be a top (``split_bodies_on_tops``), but the step in width is
-    plain. A region is a candidate when its lowest point is ``stacked_min_height`` high and it is at most
-    ``stacked_max_width`` and at least ``min_segment_extent`` wide both ways. ``region`` [s] (0: none),
+    plain. A region is a candidate when it is at most ``stacked_max_width`` and at least
+    ``min_segment_extent`` wide both ways, on the floor as on a table or a shelf (a potted plant's
+    foliage narrowing upward over its pot is kept whole by ``_flares``). ``region`` [s] (0: none),
     ``which`` [s]: the wall of each superpoint (0: none). Returns the scan points with the new superpoint
     graph, the region and wall of each new superpoint, and how many bodies were split."""
     g = sp.graph
@@ -32,7 +33,7 @@ def split_stacked(
         p = sp.points[idx]
         lo, hi = p.min(axis=0), p.max(axis=0)
         wide = hi[:2] - lo[:2]
-        if lo[2] < cfg.stacked_min_height or wide.max() > cfg.stacked_max_width or wide.min() < cfg.min_segment_extent:
+        if wide.max() > cfg.stacked_max_width or wide.min() < cfg.min_segment_extent:
             continue
         cut = _stack_cut(p, cfg)
         if cut is None:
