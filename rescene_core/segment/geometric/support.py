@@ -155,7 +155,12 @@ def _hangs_over(low: NDArray, top: NDArray, height: float, cfg: SegmentConfig) -
     below = top[top[:, 2] < height - cfg.support_band, :2]
     if len(below) < cfg.min_contacts:
         return False
-    own = np.unique(np.floor(low[:, :2] / cell).astype(np.int64), axis=0)
-    cells = np.floor(below / cell).astype(np.int64)
-    inside = (cells[:, None, :] == own[None, :, :]).all(axis=2).any(axis=1)
+    inside = np.isin(_cell_keys(below, cell), _cell_keys(low[:, :2], cell))
     return int(inside.sum()) >= cfg.min_contacts
+
+
+def _cell_keys(xy: NDArray, cell: float) -> NDArray[np.int64]:
+    """One integer per point of ``xy`` [k, 2] (m) naming its ``cell``-sized square of the plane (its column
+    times 2^32 plus its row: distinct for any room)."""
+    c = np.floor(xy / cell).astype(np.int64)
+    return c[:, 0] * (1 << 32) + c[:, 1]
