@@ -3,13 +3,19 @@ keep a pixel's label only where the rendered surface agrees with the measured de
 
 Used by the label-free front end (TSDF segments) and by the ScanNet importer (the labelled 3D mesh of a
 scene's annotation). Unlabelled faces still occlude: they render as an id that maps to 0.
+
+The label-free front end then fills what the ray cast leaves (``fill_from_surface``): a fused mesh has
+holes where a thin panel was seen from both sides (a desk's side panel, a bookcase's side), and a ray
+through one meets the wall behind, fails the depth test and leaves the pixel unlabelled.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
+from rescene_core.capture.depth_points import backproject
 from rescene_core.records import Camera
 from rescene_core.render.raycast import RayCaster, RenderMesh
 
@@ -63,3 +69,30 @@ def render_masks(
         labelled += int((ids > 0).sum())
         out[t] = ids
     return out, {"rejected_by_depth": rejected, "labelled": labelled}
+
+
+def fill_from_surface(
+    masks: NDArray[np.int32],
+    depth: NDArray[np.float32],
+    K: NDArray,
+    world_from_cam: NDArray,
+    vertices: NDArray,
+    vertex_labels: NDArray[np.int64],
+    radius: float,
+) -> int:
+    """Pixels of ``masks`` [T, H, W] left 0 that have a measured depth take, in place, the label of the mesh
+    vertex nearest their measured point (``vertices`` [v, 3] world frame, ``vertex_labels`` [v], 0: of no
+    instance) when it lies within ``radius`` (m): the pixel lies on that surface. Returns how many pixels
+    got a label."""
+    tree = cKDTree(np.asarray(vertices, np.float64))
+    filled = 0
+    for t in range(len(masks)):
+        pts, vs, us = backproject(depth[t], K[t], world_from_cam[t], masks[t] == 0)
+        if len(pts) == 0:
+            continue
+        dist, idx = tree.query(pts, distance_upper_bound=radius, workers=-1)
+        near = np.isfinite(dist)
+        labels = vertex_labels[idx[near]]
+        masks[t][vs[near], us[near]] = labels
+        filled += int((labels > 0).sum())
+    return filled

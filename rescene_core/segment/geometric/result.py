@@ -13,7 +13,7 @@ from rescene_core.segment.errors import SegmentError
 from rescene_core.segment.geometric.config import SegmentConfig
 from rescene_core.segment.geometric.points import ScanPoints
 from rescene_core.segment.labels import zero_shot_labels
-from rescene_core.segment.project import labelled_meshes, render_masks
+from rescene_core.segment.project import fill_from_surface, labelled_meshes, render_masks
 
 
 @dataclass
@@ -63,6 +63,10 @@ def _finish(
     masks, rstats = render_masks(
         caster, K, world_from_cam, W, H, depth, cfg.depth_abs_tolerance, cfg.depth_rel_tolerance
     )
+    if cfg.fill_radius > 0:
+        rstats["filled_from_surface"] = fill_from_surface(
+            masks, depth, K, world_from_cam, verts, vlabel, cfg.fill_radius
+        )
     counts = np.bincount((masks.reshape(T, -1).astype(np.int64) + np.arange(T)[:, None] * (int(masks.max()) + 1)).ravel(),
                          minlength=T * (int(masks.max()) + 1)).reshape(T, -1)  # fmt: skip
     small = (counts > 0) & (counts < cfg.min_mask_pixels)
