@@ -43,7 +43,9 @@
    plane (a desk and its monitor joined to a stretch of wall the plane did not claim), and a region
    reaching well out of its wall gives up the points of the wall's paint or its shadow that superpoints
    holding both took into it (the wall under a wall shelf, fused with its brackets).
-5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``).
+5. The labelled mesh is rendered into each camera with a depth test (``rescene_core.segment.project``), and a
+   pixel the cast leaves unlabelled takes the label of the mesh vertex nearest its measured point within
+   ``fill_radius`` (a hole in the mesh where a thin panel was seen from both sides).
 
 ``--segment masks`` (``rescene_core.segment.masks``) replaces step 4 by view consensus of per-frame 2D
 masks. Every segment is labelled ``object`` unless an open_clip checkpoint is given: then the best views of
