@@ -121,10 +121,11 @@ class SegmentConfig(BaseModel):
     """Mask depth test: absolute tolerance between rendered and measured depth (m)."""
     depth_rel_tolerance: float = 0.05
     """Mask depth test: tolerance as a fraction of the measured depth."""
-    fill_radius: float = 0.03
+    fill_radius: float = 0.05
     """A pixel the ray cast leaves unlabelled (a hole in the fused mesh, a ray through a thin panel to the wall
     behind it) takes the label of the mesh vertex nearest its measured point when that lies at most this
-    far (m) (1.5 TSDF voxels); 0: no filling."""
+    far (m); 0: no filling. (Traced on a desk's unlabelled pixels, cluttered 304: their points lay a median
+    2.1 cm from the nearest vertex of its segment, 90 % within 5.2 cm.)"""
     min_mask_pixels: int = 30
     """Per frame, a segment's mask with fewer pixels is cleared."""
     support_min_height: float = 0.25
