@@ -211,6 +211,39 @@ def test_a_stack_as_deep_as_its_shelf_is_held_by_it_a_back_or_a_divider_is_not()
     assert not _held_by_top(np.array([0.0, 0.0, 0.47]), np.array([0.45, 0.45, 0.6]), seat, CFG)
 
 
+def test_a_wall_behind_a_monitor_counts_as_a_side_of_the_desk_beyond_it():
+    from rescene_core.segment.geometric.support import _held_by_top, _sides_at_wall
+
+    # a desk 1.2 m wide and 0.6 m deep against the wall y = 0, its top at z = 0.75; a monitor 50 cm wide at
+    # the back, 2 cm off the wall; the desk is seen in front of it and left of it (a lamp hides the right)
+    desk = _box((0.0, 0.0, 0.75), (1.2, 0.6, 0.75))[:, :2]
+    wall = {"kind": "wall", "normal": [0.0, 1.0, 0.0], "offset": 0.0, "span": [-5.0, 5.0]}  # along x
+
+    def seen_around(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        hidden = np.all((desk >= lo[:2]) & (desk <= hi[:2]), axis=1) | (desk[:, 0] > hi[0])
+        return desk[~hidden]
+
+    monitor = np.array([0.4, 0.02, 0.76]), np.array([0.9, 0.2, 1.2])
+    top = seen_around(*monitor)
+    at_wall = _sides_at_wall(*monitor, 0.75, [wall], CFG)
+    assert at_wall.tolist() == [False, False, True, False]
+    assert not _held_by_top(*monitor, top, CFG)  # two sides seen beyond it: a hutch would look the same
+    assert _held_by_top(*monitor, top, CFG, walled=at_wall)
+    # the wall is no side where the desk is not seen across from it (the desk's front hidden too)
+    assert not _held_by_top(*monitor, top[top[:, 1] < 0.25], CFG, walled=at_wall)
+    # moved 20 cm off the wall, the monitor has no side at it
+    off = np.array([0.4, 0.22, 0.76]), np.array([0.9, 0.4, 1.2])
+    assert not _sides_at_wall(*off, 0.75, [wall], CFG).any()
+    # a bed's pillows, 1.6 m along the wall at its head, are the bed's own
+    bed = _box((0.0, 0.0, 0.5), (2.0, 2.1, 0.5))[:, :2]
+    pillows = np.array([0.2, 0.02, 0.52]), np.array([1.8, 0.5, 0.7])
+    assert not _sides_at_wall(*pillows, 0.5, [wall], CFG).any()
+    assert not _held_by_top(*pillows, bed[bed[:, 1] > 0.55], CFG, walled=_sides_at_wall(*pillows, 0.5, [wall], CFG))
+    # a wall beyond the end of the seen stretch of wall is none
+    short = dict(wall, span=[-0.3, 0.0])
+    assert not _sides_at_wall(*monitor, 0.75, [short], CFG).any()
+
+
 def test_a_stack_as_deep_as_its_bookcase_rests_on_its_shelf_unless_it_lies_at_the_shelfs_end():
     # a bookcase 64 cm wide, 27 cm deep; its shelf at z = 0.5, seen around the stack
     shelf = _box((0.0, 0.0, 0.5), (0.64, 0.27, 0.5))

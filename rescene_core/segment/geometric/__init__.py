@@ -24,7 +24,7 @@
    a gap where the fusion lost the stem's thin top), and so does a broad one the other overhangs all round
    (a plant's pot under its foliage, its leaves hanging below the pot's rim beside it).
    A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
-   sides, is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
+   sides (a wall behind it counting as one), is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
    a body stored on a shelf of a case, parted from the case's back and sides at its creases and where the
    colour leaves the case's own, with a board of the case over it (a book stack against a bookcase's back
    panel). A small region resting on something that narrows sharply at some height is two bodies, split

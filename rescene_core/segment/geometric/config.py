@@ -158,6 +158,13 @@ class SegmentConfig(BaseModel):
     top_sides: int = 3
     """... on at least this many of the four sides: a monitor, a lamp or a book stack on a desk (one side may
     be the wall or the desk's edge); a back or an armrest along the seat's edge is the piece's own."""
+    wall_side_gap: float = 0.08
+    """... where a side of a body's foot within this distance (m) of a wall counts as one the top reaches
+    beyond, when the top is seen beyond the side across from it (a monitor or a book stack at the back of a
+    desk against the wall, the desk's top seen in front of it and on one side) ..."""
+    wall_side_max_length: float = 1.0
+    """... and the side is at most this long (m): what stands on a top along a wall is a monitor, a lamp, a
+    stack of books; a longer body there is the piece's own (a bed's pillows along its headboard)."""
     stem_margin: float = 0.02
     """A region below another, ending where the other begins (or up to ``stem_gap`` under it), its upper end
     under the other's footprint within this margin (m), ..."""

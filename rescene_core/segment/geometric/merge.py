@@ -85,7 +85,7 @@ def merge_superpoints(
     region, stats["rows_joined"] = _join_stored_rows(sp, region, cfg)
     sp, region, which, stats["parted_from_wall"] = part_from_wall_stretch(sp, region, which, planes, cfg)
     split_from = int(region.max(initial=0)) + 1
-    sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg)
+    sp, region, which, stats["split_from_tops"] = split_bodies_on_tops(sp, region, which, cfg, planes)
     sp, region, which, stats["stacks_split"] = split_stacked(sp, region, which, cfg)
     # a lamp's base that ``_absorb_small`` gave to its nightstand came back off the top as a body of its own:
     # now under its shade as a stem is

@@ -58,6 +58,31 @@ def _sides_beyond(lo: NDArray, hi: NDArray, top: NDArray, cfg: SegmentConfig) ->
     ]) >= cfg.min_contacts  # fmt: skip
 
 
+def _sides_at_wall(
+    foot_lo: NDArray, foot_hi: NDArray, h: float, walls: list[dict], cfg: SegmentConfig
+) -> NDArray[np.bool_]:
+    """Whether each of the four sides [4] (-x, +x, -y, +y) of a footprint ``foot_lo``, ``foot_hi`` [>= 2] (m)
+    on a top at height ``h`` (m) lies within ``wall_side_gap`` of a wall facing it, along the wall's seen
+    stretch (``walls``: the wall planes of the structure, with ``normal``, ``offset`` and ``span``), and is
+    at most ``wall_side_max_length`` long: no top is seen beyond a body there, nor could be. A longer side
+    at a wall is a piece's own (a bed's pillows along its headboard)."""
+    lo, hi = np.asarray(foot_lo[:2], float), np.asarray(foot_hi[:2], float)
+    mid = 0.5 * (lo + hi)
+    centres = np.array([[lo[0], mid[1], h], [hi[0], mid[1], h], [mid[0], lo[1], h], [mid[0], hi[1], h]])
+    axes = np.array([0, 0, 1, 1])  # the axis each side faces along
+    short = (hi - lo)[1 - axes] <= cfg.wall_side_max_length
+    out = np.zeros(4, bool)
+    for wall in walls:
+        normal = np.asarray(wall["normal"], float)
+        horiz = np.cross(normal, [0.0, 0.0, 1.0])
+        along = centres @ (horiz / np.linalg.norm(horiz))
+        start, end = wall["span"]
+        facing = np.abs(normal[axes]) >= np.cos(np.radians(cfg.vertical_tolerance_deg))
+        near = np.abs(centres @ normal + wall["offset"]) <= cfg.wall_side_gap
+        out |= facing & near & (along >= start - cfg.wall_side_gap) & (along <= end + cfg.wall_side_gap)
+    return out & short
+
+
 def _held_by_top(
     lo: NDArray,
     hi: NDArray,
@@ -66,6 +91,7 @@ def _held_by_top(
     foot_lo: NDArray | None = None,
     foot_hi: NDArray | None = None,
     least: int | None = None,
+    walled: NDArray[np.bool_] | None = None,
 ) -> bool:
     """Whether a part above a top, with bounds ``lo``, ``hi`` [3] (m), stands on it as a body of its own
     rather than being the piece's own back: the top's upward-facing points ``top`` [k, 2] (x, y) reach
@@ -86,6 +112,8 @@ def _held_by_top(
     if least is not None:
         return int(sides.sum()) >= least
     if not spans.any():
+        if walled is not None:
+            sides = sides | (walled & sides[[1, 0, 3, 2]])  # a wall side counts where the top is seen across from it
         return int(sides.sum()) >= cfg.top_sides
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
     return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness

@@ -3,6 +3,9 @@ book stack on a shelf)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 import shapely
 from numpy.typing import NDArray
@@ -10,11 +13,15 @@ from numpy.typing import NDArray
 from rescene_core.segment.geometric.cases import _stored_bodies
 from rescene_core.segment.geometric.config import SegmentConfig
 from rescene_core.segment.geometric.points import ScanPoints, _facing_up, _point_parts, _regrouped
-from rescene_core.segment.geometric.support import _footprint, _held_by_top, _top_heights
+from rescene_core.segment.geometric.support import _footprint, _held_by_top, _sides_at_wall, _top_heights
 
 
 def split_bodies_on_tops(
-    sp: ScanPoints, region: NDArray[np.int64], which: NDArray[np.int64], cfg: SegmentConfig
+    sp: ScanPoints,
+    region: NDArray[np.int64],
+    which: NDArray[np.int64],
+    cfg: SegmentConfig,
+    planes: Sequence[dict[str, Any]] = (),
 ) -> tuple[ScanPoints, NDArray[np.int64], NDArray[np.int64], int]:
     """Bodies standing on a horizontal top of their region are split off it at the top's plane: a monitor
     on a desk (its base plate rises 3-7 cm, no crease and no colour step parts it), a lamp whose base disc
@@ -41,6 +48,7 @@ def split_bodies_on_tops(
     split = 0
     off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
     z = sp.points[:, 2]
+    walls = [q for q in planes if q["kind"] == "wall"]
     for r in range(1, int(region.max(initial=0)) + 1):
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
@@ -78,7 +86,10 @@ def split_bodies_on_tops(
                 if lo[2] > h + cfg.support_band or np.any(centre < tlo) or np.any(centre > thi):
                     continue  # it does not stand on the top (a shelf board over it, a part beside it)
                 foot = p[p[:, 2] <= lo[2] + cfg.foot_height]
-                if not _held_by_top(lo, hi, sp.points[slab, :2], cfg, foot.min(axis=0), foot.max(axis=0)):
+                flo, fhi = foot.min(axis=0), foot.max(axis=0)
+                if not _held_by_top(
+                    lo, hi, sp.points[slab, :2], cfg, flo, fhi, walled=_sides_at_wall(flo, fhi, h, walls, cfg)
+                ):
                     frame.append(c)  # a chair's back, a headboard, a hutch, a case's frame over its shelf
                     continue
                 point_region[body] = nxt
