@@ -211,6 +211,27 @@ def test_a_stack_as_deep_as_its_shelf_is_held_by_it_a_back_or_a_divider_is_not()
     assert not _held_by_top(np.array([0.0, 0.0, 0.47]), np.array([0.45, 0.45, 0.6]), seat, CFG)
 
 
+def test_a_stack_flush_with_a_desks_front_edge_is_held_by_the_desk_seen_left_and_right_of_it():
+    from rescene_core.segment.geometric.support import _held_by_top
+
+    # a desk 1.2 m wide and 0.6 m deep, its top at z = 0.75; a book stack 30 cm deep stands flush with its
+    # front edge, a monitor hides the desk behind it: the desk is seen beyond it left and right only
+    desk = _box((0.0, 0.0, 0.75), (1.2, 0.6, 0.75))[:, :2]
+
+    def seen_around(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        behind = (desk[:, 0] >= lo[0]) & (desk[:, 0] <= hi[0]) & (desk[:, 1] >= lo[1])
+        return desk[~behind]
+
+    stack = np.array([0.5, 0.0, 0.76]), np.array([0.72, 0.3, 0.88])
+    assert _held_by_top(*stack, seen_around(*stack), CFG)
+    # seen beyond it on one side only (a lamp hides the right), it is not held
+    left = seen_around(*stack)
+    assert not _held_by_top(*stack, left[left[:, 0] < 0.5], CFG)
+    # a board 3 cm thick standing there is a panel of the desk
+    board = np.array([0.5, 0.0, 0.76]), np.array([0.53, 0.3, 0.95])
+    assert not _held_by_top(*board, seen_around(*board), CFG)
+
+
 def test_a_wall_behind_a_monitor_counts_as_a_side_of_the_desk_beyond_it():
     from rescene_core.segment.geometric.support import _held_by_top, _sides_at_wall
 

@@ -97,14 +97,17 @@ def _held_by_top(
     rather than being the piece's own back: the top's upward-facing points ``top`` [k, 2] (x, y) reach
     ``top_margin`` beyond its foot (the bounds ``foot_lo``, ``foot_hi`` [>= 2] of what it stands on, by
     default its own: a lamp's shade overhangs its base, and a small nightstand's top reaches past the base
-    but not the shade) on ``top_sides`` of its four sides (``_sides_beyond``), and it is
-    narrower than ``support_span_fraction`` of the top both ways (a chair's back, a headboard, a hutch spans
-    its seat, bed or desk one way and stands at its edge). A body spanning a narrow top one way only is its
-    own when the top reaches beyond it on both sides the other way and it is ``body_min_thickness`` thick
-    every way: a book stack as deep as the shelf it stands on, clear of the shelf's
-    ends (a divider board across a desk is thinner). With ``least``, a body narrower than the top one way
-    or both needs the top beyond its foot on that many sides only (a body stored under a board of its
-    case, the shelf beyond it hidden)."""
+    but not the shade) on ``top_sides`` of its four sides (``_sides_beyond``), or on both sides one way when
+    it is ``body_min_thickness`` thick every way (a book stack flush with a desk's front edge, the desk seen
+    beyond it left and right), and it is narrower than ``support_span_fraction`` of the top both ways (a
+    chair's back, a headboard, a hutch spans its seat, bed or desk one way and stands at its edge). With
+    ``walled`` [4] (``_sides_at_wall``), a side at a wall counts as one the top reaches beyond when the top
+    is seen beyond the side across from it (a monitor at the back of a desk against the wall). A body
+    spanning a narrow top one way only is its own when the top reaches beyond it on both sides the other
+    way and it is ``body_min_thickness`` thick every way: a book stack as deep as the shelf it stands on,
+    clear of the shelf's ends (a divider board across a desk is thinner). With ``least``, a body narrower
+    than the top one way or both needs the top beyond its foot on that many sides only (a body stored
+    under a board of its case, the shelf beyond it hidden)."""
     spans = hi[:2] - lo[:2] >= cfg.support_span_fraction * (top.max(axis=0) - top.min(axis=0))
     if spans.all():
         return False
@@ -114,7 +117,10 @@ def _held_by_top(
     if not spans.any():
         if walled is not None:
             sides = sides | (walled & sides[[1, 0, 3, 2]])  # a wall side counts where the top is seen across from it
-        return int(sides.sum()) >= cfg.top_sides
+        # the top beyond it on both sides one way holds it, as it holds a body spanning the top the other way
+        across = bool((sides[0] and sides[1]) or (sides[2] and sides[3]))
+        thick = float(np.min(hi - lo)) >= cfg.body_min_thickness
+        return int(sides.sum()) >= cfg.top_sides or (across and thick)
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
     return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness
 
