@@ -118,9 +118,9 @@ def _held_by_top(
         if walled is not None:
             sides = sides | (walled & sides[[1, 0, 3, 2]])  # a wall side counts where the top is seen across from it
         # the top beyond it on both sides one way holds it, as it holds a body spanning the top the other way
-        across = bool((sides[0] and sides[1]) or (sides[2] and sides[3]))
+        either = bool(sides[:2].all() or sides[2:].all())
         thick = float(np.min(hi - lo)) >= cfg.body_min_thickness
-        return int(sides.sum()) >= cfg.top_sides or (across and thick)
+        return int(sides.sum()) >= cfg.top_sides or (either and thick)
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
     return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness
 
