@@ -28,6 +28,7 @@ def _stored_bodies(
     h: float,
     slab: NDArray[np.bool_],
     cfg: SegmentConfig,
+    shelves: tuple[NDArray, NDArray] | None = None,
 ) -> list[NDArray[np.bool_]]:
     """Bodies stored on a shelf of a case, which the point graph joins to the case's back, sides or edges
     (a book stack against a bookcase's back panel, flush with the shelf's front edge).
@@ -36,7 +37,7 @@ def _stored_bodies(
     reaches below the top or failed the test of a body on the top (a case's frame over its shelf, joined
     to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
     ``support_band`` under the top (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]:
-    the top's points. The stuck points in columns of the case's frame (``_frame_columns``: its sides and
+    the top's points; ``shelves``: the x, y bounds [2] of the region's tops at every height. The stuck points in columns of the case's frame (``_frame_columns``: its sides and
     back) are left to the case, and the rest parted into bodies twice (``_parted_bodies``): first at their
     concave creases (``ScanPoints.concave``: a body meets the case's back and the board over it at a
     concave corner; its own faces meet at convex ones), then what is left also where the colour changes
@@ -50,16 +51,16 @@ def _stored_bodies(
     if int(stuck.sum()) < cfg.min_segment_points:
         return []
     case = sp.points[mine]
-    bodies = _parted_bodies(sp, stuck, far_below, h, slab, case, cfg)
+    # the case's wood or paint, lit or shaded, against the colours of what is stored on it
+    own = np.zeros(len(mine), bool)
+    own[mine] = _hue_rest(sp.colours[mine], np.median(sp.colours[slab], axis=0))[1] < cfg.case_tint
+    bodies = _parted_bodies(sp, stuck, far_below, h, slab, case, cfg, shelves=shelves, tint=own)
     left = stuck.copy()
     for body in bodies:
         left &= ~body
     if int(left.sum()) < cfg.min_segment_points:
         return bodies
-    # the case's wood or paint, lit or shaded, against the colours of what is stored on it
-    own = np.zeros(len(mine), bool)
-    own[mine] = _hue_rest(sp.colours[mine], np.median(sp.colours[slab], axis=0))[1] < cfg.case_tint
-    return bodies + _parted_bodies(sp, left, far_below, h, slab, case, cfg, own)
+    return bodies + _parted_bodies(sp, left, far_below, h, slab, case, cfg, own, shelves, own)
 
 
 def _parted_bodies(
@@ -71,16 +72,22 @@ def _parted_bodies(
     case: NDArray,
     cfg: SegmentConfig,
     own: NDArray[np.bool_] | None = None,
+    shelves: tuple[NDArray, NDArray] | None = None,
+    tint: NDArray[np.bool_] | None = None,
 ) -> list[NDArray[np.bool_]]:
     """The bodies the ``stuck`` points [n] over a top at height ``h`` (m) part into at the concave creases
     and, with ``own`` [n] (each point of the case's colour or not), where that changes too (see
-    ``_stored_bodies``; ``far_below``, ``slab`` as there; ``case`` [k, 3]: the case's points).
+    ``_stored_bodies``; ``far_below``, ``slab`` as there; ``case`` [k, 3]: the case's points; ``shelves``:
+    the lower and upper x, y bounds [2] of the case's tops at every height).
 
     A part beginning on the top and touching nothing far under it seeds a body, and the touching parts
     within its footprint grown by ``top_margin`` join it (the books of a stack, a stack on a stack). Parted
     by colour, a part of the other colour class joins only when it ends ``frame_column_rise`` over the top
     at most (a book of the case's colour in a stack, not a piece of the frame over it). A body is stored
-    when it has ``min_segment_points`` points, its centre lies over the top's seen bounds, the top is seen
+    when it has ``min_segment_points`` points, its centre lies over the top's seen bounds (or over the
+    bounds of the case's ``shelves`` seen at every height, when under half its points are of the case's
+    colour, ``tint`` [n]: a stack at a shelf's end, the end hidden behind it, seen on the shelves over and
+    under it; a piece of the case's side there has its colour), the top is seen
     beyond it on ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every
     way, is not upright (``_stored_upright``: a row of books standing in a bookcase is the bookcase's),
     nor, parted by colour, the case's own books (``_case_books``), and has a board of the case over
@@ -112,6 +119,7 @@ def _parted_bodies(
         neighbours.setdefault(b, set()).add(a)
     top = sp.points[slab, :2]
     tlo, thi = top.min(axis=0), top.max(axis=0)
+    clo, chi = (np.minimum(tlo, shelves[0]), np.maximum(thi, shelves[1])) if shelves is not None else (tlo, thi)
     seeds = np.flatnonzero(~held & (lo[:, 2] <= h + cfg.support_band) & (count >= cfg.min_contacts))
     taken = held.copy()
     bodies = []
@@ -139,12 +147,14 @@ def _parted_bodies(
             continue
         centre = 0.5 * (blo[:2] + bhi[:2])
         if (
-            np.any(centre < tlo)
-            or np.any(centre > thi)
+            np.any(centre < clo)
+            or np.any(centre > chi)
             or not _held_by_top(blo, bhi, top, cfg, least=cfg.stored_top_sides)
         ):
             continue  # beside the shelf, the shelf seen nowhere beyond it, or spanned both ways
         points = np.isin(part, body)
+        if (np.any(centre < tlo) or np.any(centre > thi)) and (tint is None or float(tint[points].mean()) >= 0.5):
+            continue  # at a shelf's end seen only over and under it, of the case's colour: a piece of the case
         if own is not None and _case_books(sp, points, bhi[2] - blo[2], np.min(bhi[:2] - blo[:2]), cfg):
             continue  # parted by colour alone, upright or a row: the case's own books, a piece of its frame
         if _stored_upright(case, blo, bhi, cfg) and not _in_layers(sp, points, cfg):

@@ -53,7 +53,13 @@ def split_bodies_on_tops(
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
             continue
-        for h in _top_heights(z[mine & up], cfg, min(cfg.support_min_height, cfg.stored_min_height)):
+        heights = _top_heights(z[mine & up], cfg, min(cfg.support_min_height, cfg.stored_min_height))
+        # all the region's tops: a shelf's end hidden behind what stands there is seen on the shelves over it
+        flat = np.flatnonzero(mine & up)
+        near = np.abs(z[flat, None] - np.asarray(heights)[None, :]) <= cfg.support_band / 2
+        shelf = sp.points[flat[near.any(axis=1)], :2]
+        shelves = (shelf.min(axis=0), shelf.max(axis=0)) if len(shelf) else None
+        for h in heights:
             mine = (point_region == r) & off_wall
             slab = mine & up & (np.abs(z - h) <= cfg.support_band / 2)
             if slab.sum() < cfg.top_min_points:
@@ -98,7 +104,7 @@ def split_bodies_on_tops(
             # what the region's frame holds fast above the top, or all above a top too low to carry bodies
             # of their own: a body stored on the shelf of a case
             stuck = above & (np.isin(comp, frame) | (h < cfg.support_min_height)) & (point_region == r)
-            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, cfg):
+            for body in _stored_bodies(sp, stuck, mine & (z < h - cfg.support_band), mine, h, slab, cfg, shelves):
                 point_region[body] = nxt
                 nxt += 1
                 split += 1
