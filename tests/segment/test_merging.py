@@ -617,6 +617,30 @@ def test_a_stack_at_a_shelfs_hidden_end_under_the_next_board_is_split_off_the_ca
     assert len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
 
 
+def test_a_stack_at_a_shelfs_end_seen_only_on_the_shelf_under_it_is_stored_a_piece_of_the_cases_colour_is_not():
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
+
+    # a bookcase's shelf at 0.9 m, seen only up to x = 0.45 (its front edge too): a stack at x 0.55-0.75 hides
+    # its end, which the shelf at 0.5 under it shows to reach x = 0.8; the next board over the stack at 1.3
+    wood, blue = (0.58, 0.47, 0.37), (0.2, 0.3, 0.6)
+    case = [_up((0.0, 0.0, 0.5), (0.8, 0.3, 0.5)), _up((0.0, 0.0, 0.9), (0.45, 0.3, 0.9))]
+    case += [_faces((0.0, 0.0, 1.3), (0.8, 0.3, 1.3), (0, 0, -1))]
+    case += [_side((x, 0.0, 0.925), (x, 0.3, 1.275)) for x in (0.0, 0.8)]
+    stack = [_up((0.55, 0.025, 1.0), (0.75, 0.25, 1.0)), _faces((0.55, 0.275, 0.925), (0.75, 0.275, 0.975), (0, 1, 0))]
+    stack += [_side((x, 0.025, 0.925), (x, 0.25, 0.975)) for x in (0.525, 0.775)]
+    n_case = sum(len(f[0]) for f in case)
+    for colour, stored in ((blue, True), (wood, False)):
+        sp = _surfaces(case + stack, [wood] * len(case) + [colour] * len(stack))
+        region = np.ones(sp.graph.size, np.int64)
+        sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+        point_region = region2[sp2.graph.label]
+        assert (point_region[:n_case] == 1).all()
+        if stored:  # a stack of books: its centre lies over the case's shelves, under the shelf at 0.5
+            assert split == 1 and len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
+        else:  # of the case's colour at the end of a shelf it hides: a piece of the case
+            assert split == 0 and (point_region == 1).all()
+
+
 def test_a_board_covers_what_is_stored_under_it_a_picture_over_a_headboard_does_not():
     from rescene_core.segment.geometric.support import _board_share
 
