@@ -24,11 +24,11 @@
    a gap where the fusion lost the stem's thin top), and so does a broad one the other overhangs all round
    (a plant's pot under its foliage, its leaves hanging below the pot's rim beside it).
    A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
-   sides (a wall behind it counting as one), is split off at the top's plane (a monitor whose base plate rises a few centimetres), and so is
-   a body stored on a shelf of a case, parted from the case's back and sides at its creases and where the
-   colour leaves the case's own, with a board of the case over it (a book stack against a bookcase's back
-   panel). A small region resting on something that narrows sharply at some height is two bodies, split
-   there (a book stack on a stack).
+   sides or on both sides one way (a wall behind it counting as one), is split off at the top's plane (a
+   monitor whose base plate rises a few centimetres), and so is a body stored on a shelf of a case, parted
+   from the case's back and sides at its creases and where the colour leaves the case's own, with a board
+   of the case over it (a book stack against a bookcase's back panel). A small region resting on something
+   that narrows sharply at some height is two bodies, split there (a book stack on a stack).
    A region standing upright in a larger one's bounds under a board of it, not in layers, joins it (a row
    of books standing in a bookcase), and a body split off a top joins a shade over it as a stem does (a
    lamp's base, given first to the nightstand it touches most).

@@ -33,18 +33,19 @@ def _stored_bodies(
     """Bodies stored on a shelf of a case, which the point graph joins to the case's back, sides or edges
     (a book stack against a bookcase's back panel, flush with the shelf's front edge).
 
-    ``stuck`` [n]: the region's points above the top at height ``h`` (m) whose part of the point graph
-    reaches below the top or failed the test of a body on the top (a case's frame over its shelf, joined
-    to nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
+    ``stuck`` [n]: the region's points above the top at height ``h`` (m) whose part of the point graph reaches
+    below the top or failed the test of a body on the top (a case's frame over its shelf, joined to
+    nothing under it, with the stacks touching it); ``far_below`` [n]: the region's points more than
     ``support_band`` under the top (a leg, a side panel); ``mine`` [n]: the region's points; ``slab`` [n]:
-    the top's points; ``shelves``: the x, y bounds [2] of the region's tops at every height. The stuck points in columns of the case's frame (``_frame_columns``: its sides and
-    back) are left to the case, and the rest parted into bodies twice (``_parted_bodies``): first at their
-    concave creases (``ScanPoints.concave``: a body meets the case's back and the board over it at a
-    concave corner; its own faces meet at convex ones), then what is left also where the colour changes
-    between the case's own (``case_tint`` off the shelf's median colour) and another: where the fused
-    surface rounds a corner, no crease parts a stack from the panel it stands flush with, but its colour
-    does. Creases come first because a book of the case's colour in a stack is parted from the other
-    books by colour and stays with the case. Returns the points [n] of each body."""
+    the top's points; ``shelves``: the x, y bounds [2] of the region's tops at every height. The stuck
+    points in columns of the case's frame (``_frame_columns``: its sides and back) are left to the case,
+    and the rest parted into bodies twice (``_parted_bodies``): first at their concave creases
+    (``ScanPoints.concave``: a body meets the case's back and the board over it at a concave corner; its
+    own faces meet at convex ones), then what is left also where the colour changes between the case's own
+    (``case_tint`` off the shelf's median colour) and another: where the fused surface rounds a corner, no
+    crease parts a stack from the panel it stands flush with, but its colour does. Creases come first
+    because a book of the case's colour in a stack is parted from the other books by colour and stays with
+    the case. Returns the points [n] of each body."""
     # the case's sides and back rise unbroken from the shelf: taken off the stuck points, they no longer
     # join the bodies they touch (a stack flush with a side panel or against the back)
     stuck = stuck & ~_frame_columns(sp.points, stuck, h, cfg)

@@ -161,7 +161,7 @@ class SegmentConfig(BaseModel):
     wall_side_gap: float = 0.08
     """... where a side of a body's foot within this distance (m) of a wall counts as one the top reaches
     beyond, when the top is seen beyond the side across from it (a monitor or a book stack at the back of a
-    desk against the wall, the desk's top seen in front of it and on one side) ..."""
+    desk against the wall, the desk's top seen in front of it) ..."""
     wall_side_max_length: float = 1.0
     """... and the side is at most this long (m): what stands on a top along a wall is a monitor, a lamp, a
     stack of books; a longer body there is the piece's own (a bed's pillows along its headboard)."""
