@@ -55,13 +55,13 @@ def _stored_bodies(
     # the case's wood or paint, lit or shaded, against the colours of what is stored on it
     own = np.zeros(len(mine), bool)
     own[mine] = _hue_rest(sp.colours[mine], np.median(sp.colours[slab], axis=0))[1] < cfg.case_tint
-    bodies = _parted_bodies(sp, stuck, far_below, h, slab, case, cfg, shelves=shelves, tint=own)
+    bodies = _parted_bodies(sp, stuck, far_below, h, slab, case, own, shelves, cfg)
     left = stuck.copy()
     for body in bodies:
         left &= ~body
     if int(left.sum()) < cfg.min_segment_points:
         return bodies
-    return bodies + _parted_bodies(sp, left, far_below, h, slab, case, cfg, own, shelves, own)
+    return bodies + _parted_bodies(sp, left, far_below, h, slab, case, own, shelves, cfg, by_colour=True)
 
 
 def _parted_bodies(
@@ -71,13 +71,13 @@ def _parted_bodies(
     h: float,
     slab: NDArray[np.bool_],
     case: NDArray,
+    own: NDArray[np.bool_],
+    shelves: tuple[NDArray, NDArray] | None,
     cfg: SegmentConfig,
-    own: NDArray[np.bool_] | None = None,
-    shelves: tuple[NDArray, NDArray] | None = None,
-    tint: NDArray[np.bool_] | None = None,
+    by_colour: bool = False,
 ) -> list[NDArray[np.bool_]]:
     """The bodies the ``stuck`` points [n] over a top at height ``h`` (m) part into at the concave creases
-    and, with ``own`` [n] (each point of the case's colour or not), where that changes too (see
+    and, ``by_colour``, where ``own`` [n] (each point of the case's colour or not) changes too (see
     ``_stored_bodies``; ``far_below``, ``slab`` as there; ``case`` [k, 3]: the case's points; ``shelves``:
     the lower and upper x, y bounds [2] of the case's tops at every height).
 
@@ -87,7 +87,7 @@ def _parted_bodies(
     at most (a book of the case's colour in a stack, not a piece of the frame over it). A body is stored
     when it has ``min_segment_points`` points, its centre lies over the top's seen bounds (or over the
     bounds of the case's ``shelves`` seen at every height, when under half its points are of the case's
-    colour, ``tint`` [n]: a stack at a shelf's end, the end hidden behind it, seen on the shelves over and
+    colour: a stack at a shelf's end, the end hidden behind it, seen on the shelves over and
     under it; a piece of the case's side there has its colour), the top is seen
     beyond it on ``stored_top_sides`` sides (``_held_by_top``), it is ``body_min_thickness`` thick every
     way, is not upright (``_stored_upright``: a row of books standing in a bookcase is the bookcase's),
@@ -97,8 +97,8 @@ def _parted_bodies(
     chair's seat in one region is none). Returns the points [n] of each body."""
     i0, i1 = sp.edges[:, 0], sp.edges[:, 1]
     inner = stuck[i0] & stuck[i1]
-    keep = ~sp.concave if own is None else ~sp.concave & (own[i0] == own[i1])
-    boards = case if own is None else sp.points[own]  # ``own`` holds the case's points alone
+    keep = ~sp.concave & (own[i0] == own[i1]) if by_colour else ~sp.concave
+    boards = sp.points[own] if by_colour else case  # ``own`` holds the case's points alone
     k, part = _point_parts(sp.edges, stuck, keep)
     sub = part[stuck]
     p = sp.points[stuck]
@@ -112,7 +112,7 @@ def _parted_bodies(
     held[part[i1[stuck[i1] & far_below[i0]]]] = True
     cross = inner & (part[i0] != part[i1])
     colour = np.zeros(k, bool)
-    if own is not None:
+    if by_colour:
         colour[sub] = own[stuck]  # one class a part: ``keep`` cuts where it changes
     neighbours: dict[int, set[int]] = {}
     for a, b in zip(part[i0[cross]].tolist(), part[i1[cross]].tolist(), strict=True):
@@ -154,9 +154,9 @@ def _parted_bodies(
         ):
             continue  # beside the shelf, the shelf seen nowhere beyond it, or spanned both ways
         points = np.isin(part, body)
-        if (np.any(centre < tlo) or np.any(centre > thi)) and (tint is None or float(tint[points].mean()) >= 0.5):
+        if (np.any(centre < tlo) or np.any(centre > thi)) and float(own[points].mean()) >= 0.5:
             continue  # at a shelf's end seen only over and under it, of the case's colour: a piece of the case
-        if own is not None and _case_books(sp, points, bhi[2] - blo[2], np.min(bhi[:2] - blo[:2]), cfg):
+        if by_colour and _case_books(sp, points, bhi[2] - blo[2], np.min(bhi[:2] - blo[:2]), cfg):
             continue  # parted by colour alone, upright or a row: the case's own books, a piece of its frame
         if _stored_upright(case, blo, bhi, cfg) and not _in_layers(sp, points, cfg):
             continue  # books standing in a row: the bookcase's own

@@ -199,6 +199,14 @@ def _ceiling_height(planes: list[dict[str, Any]]) -> float:
     return ceiling[0] if ceiling else float(np.inf)
 
 
+def _wall_coordinates(p: NDArray, plane: dict[str, Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Of points ``p`` [k, 3]: the signed distance [k] (m) in front of a wall plane (``normal``, ``offset``) and
+    the position [k] (m) along it, in the coordinate of its ``span`` (along ``normal`` x up)."""
+    normal = np.asarray(plane["normal"], float)
+    horiz = np.cross(normal, [0.0, 0.0, 1.0])
+    return p @ normal + plane["offset"], p @ (horiz / np.linalg.norm(horiz))
+
+
 def _structure_distance(p: NDArray, planes: list[dict[str, Any]]) -> NDArray[np.float64]:
     """Distance [k] of points [k, 3] to the nearest structure plane: the floor (z = 0), a wall, the ceiling (m)."""
     dist = np.abs(p[:, 2])

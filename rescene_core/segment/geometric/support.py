@@ -9,6 +9,7 @@ from scipy import ndimage
 from shapely.geometry import MultiPoint, Polygon
 
 from rescene_core.segment.geometric.config import SegmentConfig
+from rescene_core.segment.geometric.structure import _wall_coordinates
 
 
 def _top_heights(z: NDArray[np.float64], cfg: SegmentConfig, min_height: float) -> list[float]:
@@ -73,12 +74,10 @@ def _sides_at_wall(
     short = (hi - lo)[1 - axes] <= cfg.wall_side_max_length
     out = np.zeros(4, bool)
     for wall in walls:
-        normal = np.asarray(wall["normal"], float)
-        horiz = np.cross(normal, [0.0, 0.0, 1.0])
-        along = centres @ (horiz / np.linalg.norm(horiz))
+        dist, along = _wall_coordinates(centres, wall)
         start, end = wall["span"]
-        facing = np.abs(normal[axes]) >= np.cos(np.radians(cfg.vertical_tolerance_deg))
-        near = np.abs(centres @ normal + wall["offset"]) <= cfg.wall_side_gap
+        facing = np.abs(np.asarray(wall["normal"], float)[axes]) >= np.cos(np.radians(cfg.vertical_tolerance_deg))
+        near = np.abs(dist) <= cfg.wall_side_gap
         out |= facing & near & (along >= start - cfg.wall_side_gap) & (along <= end + cfg.wall_side_gap)
     return out & short
 
@@ -114,15 +113,15 @@ def _held_by_top(
     sides = _sides_beyond(lo if foot_lo is None else foot_lo, hi if foot_hi is None else foot_hi, top, cfg)
     if least is not None:
         return int(sides.sum()) >= least
+    thick = float(np.min(hi - lo)) >= cfg.body_min_thickness
     if not spans.any():
         if walled is not None:
             sides = sides | (walled & sides[[1, 0, 3, 2]])  # a wall side counts where the top is seen across from it
         # the top beyond it on both sides one way holds it, as it holds a body spanning the top the other way
         either = bool(sides[:2].all() or sides[2:].all())
-        thick = float(np.min(hi - lo)) >= cfg.body_min_thickness
         return int(sides.sum()) >= cfg.top_sides or (either and thick)
     across = sides[2:] if spans[0] else sides[:2]  # the two sides of the way it does not span
-    return bool(across.all()) and float(np.min(hi - lo)) >= cfg.body_min_thickness
+    return bool(across.all()) and thick
 
 
 def _rests_on(

@@ -23,6 +23,7 @@ from rescene_core.segment.geometric.structure import (
     _mostly_structure,
     _out_from_wall,
     _structure_distance,
+    _wall_coordinates,
 )
 
 
@@ -84,11 +85,7 @@ def _near_wall(sp: ScanPoints, planes: list[dict[str, Any]], cfg: SegmentConfig)
     for plane in planes:
         if plane["kind"] != "wall":
             continue
-        normal = np.asarray(plane["normal"])
-        horiz = np.cross(normal, [0.0, 0.0, 1.0])
-        horiz /= np.linalg.norm(horiz)
-        dist = sp.points @ normal + plane["offset"]
-        along = sp.points @ horiz
+        dist, along = _wall_coordinates(sp.points, plane)
         lo, hi = plane["span"]
         inside = (dist > -cfg.plane_distance) & (dist < cfg.structure_band) & (along >= lo) & (along <= hi)
         outside_count = np.bincount(g.label, (~inside).astype(float), n)
