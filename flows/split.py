@@ -91,7 +91,12 @@ def done_reason(run_dir: Path, capture_sha256: str, config: RunConfig) -> str | 
     manifest_path = RunPaths(run_dir).manifest
     if not manifest_path.exists():
         return "no manifest"
-    m = read_json(manifest_path)
+    try:
+        m = read_json(manifest_path)
+    except (OSError, ValueError) as exc:  # cut short or not JSON: whatever wrote it did not finish
+        return f"manifest unreadable ({type(exc).__name__})"
+    if not isinstance(m, dict):
+        return "manifest unreadable (not a JSON object)"
     if m.get("state") != "Completed":
         return f"last run {m.get('state')}"
     if m.get("capture", {}).get("sha256") != capture_sha256:
@@ -254,7 +259,13 @@ def rescene_split(
             local = rescene(capture=str(entry.capture), run_dir=str(run_dir), config=config, return_state=True)
             rows[entry.name] = _row(entry, run_dir, local.name or local.type.value, False, None, local.message)
             continue
-        flow_run = run_deployment(name=deployment, parameters=params, timeout=0, as_subflow=True)
+        try:
+            flow_run = run_deployment(name=deployment, parameters=params, timeout=0, as_subflow=True)
+        except Exception as exc:  # noqa: BLE001 - the API refused or failed this submission: the others still run
+            message = f"could not submit a {deployment} run: {type(exc).__name__}: {exc}"
+            rows[entry.name] = _row(entry, run_dir, "Failed", False, None, message, False)
+            logger.error("%s: %s", entry.name, message)
+            continue
         assert isinstance(flow_run, FlowRun)  # a sync flow gets the flow run, not the async variant's coroutine
         logger.info("submitted %s as flow run %s", entry.name, flow_run.id)
         pending.append((entry, run_dir, flow_run))

@@ -9,6 +9,7 @@ off, so the split deployment's nightly cron never starts a run in the middle of 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import socket
 import subprocess
@@ -37,9 +38,18 @@ def free_port() -> int:
 
 
 def prefect_cli(args: list[str], env: dict[str, str], timeout: float = 300) -> subprocess.CompletedProcess:
-    """Run `prefect ARGS` from the repository root; fails the test with its output when it fails."""
+    """Run `prefect ARGS` from the repository root; fails the test with its output when it fails (and, for a
+    flow run that ended badly, with the flow run's own log: the worker's log does not hold its traceback)."""
     out = subprocess.run([PREFECT, *args], env=env, cwd=REPO, capture_output=True, text=True, timeout=timeout)
-    assert out.returncode == 0, f"prefect {' '.join(args)} failed:\n{out.stdout[-3000:]}\n{out.stderr[-3000:]}"
+    if out.returncode != 0:
+        run_log = ""
+        run_id = re.search(r"UUID: ([0-9a-f-]{36})", out.stdout)
+        if run_id:
+            logs = subprocess.run(
+                [PREFECT, "flow-run", "logs", run_id[1]], env=env, cwd=REPO, capture_output=True, text=True, timeout=60
+            )
+            run_log = f"\nflow run {run_id[1]} log:\n{logs.stdout[-6000:]}{logs.stderr[-1000:]}"
+        raise AssertionError(f"prefect {' '.join(args)} failed:\n{out.stdout[-3000:]}\n{out.stderr[-3000:]}{run_log}")
     return out
 
 

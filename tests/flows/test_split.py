@@ -63,6 +63,10 @@ def test_done_reason(box_capture_path, tmp_path):
     assert done_reason(run, sha, config) == "code changed"
     (run / "manifest.json").write_text(json.dumps({**manifest, "state": "Failed"}))
     assert done_reason(run, sha, config) == "last run Failed"
+    (run / "manifest.json").write_text(json.dumps(manifest)[:40])  # cut short by a crash mid-write
+    assert done_reason(run, sha, config) == "manifest unreadable (JSONDecodeError)"
+    (run / "manifest.json").write_text("[]")
+    assert done_reason(run, sha, config) == "manifest unreadable (not a JSON object)"
 
 
 def test_split_runs_skips_and_reports(prefect_server, fake_stages, box_capture_path, tmp_path):
@@ -134,6 +138,21 @@ def test_split_wait_times_out(prefect_server, box_capture_path, tmp_path, reques
     assert state.is_failed() and "boxes (TimedOut: not final after 2 s" in state.message
     row = pq.read_table(out / "idle_summary.parquet").to_pylist()[0]
     assert row["state"] == "TimedOut" and row["flow_run_id"]
+
+
+def test_a_scene_whose_run_cannot_be_created_fails_alone(prefect_server, box_capture_path, tmp_path):
+    """The API refusing one scene's deployment run (here: no such deployment) fails that scene with the
+    API's reason; the split still writes its summary."""
+    from flows.split import rescene_split
+
+    split = tmp_path / "nodeploy.txt"
+    split.write_text(f"{box_capture_path} boxes\nmissing.zarr\n")
+    out = tmp_path / "runs"
+    state = rescene_split(str(split), str(out), deployment="rescene/no-such-deployment", return_state=True)
+    assert state.is_failed() and "boxes (Failed: could not submit a rescene/no-such-deployment run" in state.message
+    rows = pq.read_table(out / "nodeploy_summary.parquet").to_pylist()
+    assert [(r["scene"], r["state"]) for r in rows] == [("boxes", "Failed"), ("missing", "Failed")]
+    assert rows[0]["flow_run_id"] is None and "ObjectNotFound" in rows[0]["message"]
 
 
 def _delete_deployment(deployment_id) -> None:
