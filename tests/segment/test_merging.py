@@ -576,6 +576,33 @@ def test_chairs_beside_a_table_are_parted_from_it_its_legs_and_what_stands_on_it
     assert len(np.unique(on_chair)) == 1 and on_chair[0] != 1
 
 
+def test_chairs_pushed_in_on_both_sides_of_a_table_are_parted_from_it_before_their_seats_carry_it():
+    # a dining table 1.4 by 0.9 m, its top at 0.75 m, its legs seen only above the seats of the chairs pushed
+    # in on its long sides; each chair's back stands 7.5 cm off the table's edge, bridged to it. The seats,
+    # lower than the top and beyond it on both sides, are a top of the region too, on which the table with
+    # the chairs' backs would stand as a body
+    table = [_up((0.0, 0.0, 0.75), (1.4, 0.9, 0.75)), _side((0.0, 0.0, 0.725), (0.0, 0.9, 0.725))]
+    table += [_side((x, y, 0.5), (x + 0.05, y + 0.05, 0.7)) for x in (0.05, 1.3) for y in (0.05, 0.8)]
+    chairs = []
+    for y_seat, y_back, y_bridge, facing in ((-0.55, -0.075, -0.05, 1), (0.975, 0.975, 0.925, -1)):
+        chair = [
+            _up((0.45, y_seat, 0.45), (0.9, y_seat + 0.45, 0.45)),
+            _faces((0.45, y_back, 0.475), (0.9, y_back, 0.925), (0, facing, 0)),
+        ]
+        chair += [
+            _side((x, y, 0.05), (x + 0.025, y + 0.025, 0.425)) for x in (0.45, 0.875) for y in (y_seat, y_seat + 0.45)
+        ]
+        chairs.append(chair + [_faces((0.5, y_bridge, 0.75), (0.85, y_bridge + 0.025, 0.75), (0, facing, 0))])
+    point_region, split = _split(table + chairs[0] + chairs[1])
+    n_table, n_chair = sum(len(f[0]) for f in table), sum(len(f[0]) for f in chairs[0])
+    assert split == 2
+    assert (point_region[:n_table] == 1).all()
+    first, second = point_region[n_table : n_table + n_chair], point_region[n_table + n_chair :]
+    for chair in (first, second):
+        assert len(np.unique(chair[: -len(chairs[0][-1][0])])) == 1 and chair[0] != 1  # the bridge may go either way
+    assert first[0] != second[0]
+
+
 def test_a_strip_of_wall_standing_beside_a_cabinets_top_is_not_parted_from_it():
     # a cabinet 1 m wide, 0.45 m deep, its top at 0.85 m, and a strip of a wall's corner beside its end, 12.5 by
     # 12.5 cm and 1.1 m tall, in the same region
@@ -639,6 +666,51 @@ def test_a_stack_at_a_shelfs_end_seen_only_on_the_shelf_under_it_is_stored_a_pie
             assert split == 1 and len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
         else:  # of the case's colour at the end of a shelf it hides: a piece of the case
             assert split == 0 and (point_region == 1).all()
+
+
+def test_a_stack_on_a_shelf_seen_only_along_its_front_edge_is_split_off_the_case_frame_above_it():
+    from rescene_core.segment.geometric.tops import split_bodies_on_tops
+
+    # a bookcase's shelf at 1.3 m (at the cameras' height) seen only along its front edge, y 0.2-0.3 of its
+    # 0.3 m depth, the shelf at 0.9 under it seen whole: a stack at x 0.5-0.7 stands on the hidden part, its
+    # centre behind all that is seen of its shelf; the next board over it at 1.7 m and the case's sides hold it
+    wood, blue = (0.58, 0.47, 0.37), (0.2, 0.3, 0.6)
+    edge = _up((0.0, 0.2, 1.3), (0.8, 0.3, 1.3))
+    hidden = (edge[0][:, 0] > 0.46) & (edge[0][:, 0] < 0.74) & (edge[0][:, 1] < 0.24)  # under the stack's front
+    case = [_up((0.0, 0.0, 0.9), (0.8, 0.3, 0.9)), (edge[0][~hidden], edge[1][~hidden])]
+    case += [_faces((0.0, 0.0, 1.7), (0.8, 0.3, 1.7), (0, 0, -1))]
+    case += [_side((x, 0.0, 1.325), (x, 0.3, 1.675)) for x in (0.0, 0.8)]
+    stack = [_up((0.5, 0.025, 1.45), (0.7, 0.2, 1.45)), _faces((0.5, 0.225, 1.325), (0.7, 0.225, 1.425), (0, 1, 0))]
+    stack += [_side((x, 0.025, 1.325), (x, 0.2, 1.425)) for x in (0.475, 0.725)]
+    sp = _surfaces(case + stack, [wood] * len(case) + [blue] * len(stack))
+    region = np.ones(sp.graph.size, np.int64)
+    sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
+    point_region = region2[sp2.graph.label]
+    n_case = sum(len(f[0]) for f in case)
+    assert split == 1
+    assert (point_region[:n_case] == 1).all()
+    assert len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
+
+
+def test_a_body_split_off_a_top_is_searched_for_bodies_on_its_own_tops():
+    # a low table 1.6 by 0.8 m, its top at 0.45 m, and a hutch standing on it, 1 by 0.6 m, with a shelf at 0.8 m
+    # and its top board at 1.225 m; a box stands on the hutch's shelf. The hutch is a body on the table's top
+    # and the box one on the hutch's shelf
+    top = _up((0.0, 0.0, 0.45), (1.6, 0.8, 0.45))
+    under = (top[0][:, 0] > 0.29) & (top[0][:, 0] < 1.31) & (top[0][:, 1] > 0.09) & (top[0][:, 1] < 0.71)
+    table = [(top[0][~under], top[1][~under])]
+    table += [_side((x, y, 0.05), (x + 0.05, y + 0.05, 0.425)) for x in (0.0, 1.55) for y in (0.0, 0.75)]
+    hutch = [_side((x, 0.1, 0.475), (x, 0.7, 1.2)) for x in (0.3, 1.3)]
+    hutch += [_up((0.325, 0.1, 0.8), (1.275, 0.7, 0.8)), _up((0.3, 0.1, 1.225), (1.3, 0.7, 1.225))]
+    box = [_up((0.6, 0.25, 1.0), (0.9, 0.5, 1.0))]
+    box += [_side((x, 0.25, 0.825), (x, 0.5, 0.975)) for x in (0.575, 0.925)]
+    point_region, split = _split(table + hutch + box)
+    n_table, n_hutch = sum(len(f[0]) for f in table), sum(len(f[0]) for f in hutch)
+    on_hutch, on_box = point_region[n_table : n_table + n_hutch], point_region[n_table + n_hutch :]
+    assert split == 2
+    assert (point_region[:n_table] == 1).all()
+    assert len(np.unique(on_hutch)) == 1 and len(np.unique(on_box)) == 1
+    assert len({1, int(on_hutch[0]), int(on_box[0])}) == 3
 
 
 def test_a_board_covers_what_is_stored_under_it_a_picture_over_a_headboard_does_not():

@@ -23,11 +23,14 @@
    table lamp's base and stem under its shade, parted from it by colour and the crease at the rim, or by
    a gap where the fusion lost the stem's thin top), and so does a broad one the other overhangs all round
    (a plant's pot under its foliage, its leaves hanging below the pot's rim beside it).
-   A compact body standing on a horizontal top of its own region, the top reaching beyond its foot on three
+   A compact body standing on a horizontal top of its own region (the highest top first: chairs pushed in at
+   a table part from it before their seats could carry it), the top reaching beyond its foot on three
    sides or on both sides one way (a wall behind it counting as one), is split off at the top's plane (a
-   monitor whose base plate rises a few centimetres), and so is a body stored on a shelf of a case, parted
+   monitor whose base plate rises a few centimetres), and searched in turn for bodies on its own tops (a
+   bookcase's upper part split off at a nightstand beside it); so is a body stored on a shelf of a case, parted
    from the case's back and sides at its creases and where the colour leaves the case's own, with a board
-   of the case over it (a book stack against a bookcase's back panel). A small region resting on something
+   of the case over it (a book stack against a bookcase's back panel, or behind the front edge of a shelf at
+   the cameras' height, the only part of the shelf seen). A small region resting on something
    that narrows sharply at some height is two bodies, split there (a book stack on a stack).
    A region standing upright in a larger one's bounds under a board of it, not in layers, joins it (a row
    of books standing in a bookcase), and a body split off a top joins a shade over it as a stem does (a

@@ -37,9 +37,14 @@ def split_bodies_on_tops(
     pieces standing on the floor beside a high top are parted from it (``_pieces_beside_top``: chairs at a
     table); after it, the parts joined to the region below the top, and those that failed the body test,
     are searched for bodies stored on the top (``_stored_bodies``: a case's frame over its shelf holds
-    them). Superpoints a body cuts are split. ``which`` [s]: the wall of each superpoint (0: none). Returns
-    the scan points with the new superpoint graph, the region and wall of each new superpoint, and how
-    many bodies and pieces were split."""
+    them), and so are the parts beginning on the top whose centre lies beyond what is seen of it (a shelf
+    at the cameras' height seen only along its front edge, the stack on it behind the edge). The tops are
+    taken from the highest down: chairs pushed in at a table part from it at its top before their seats, a
+    lower top of the same region, could carry the table as a body. A body split off is searched in turn
+    for bodies on tops of its own (the upper part of a bookcase split off at a nightstand's top beside it,
+    and the stacks on its shelves). Superpoints a body cuts are split. ``which`` [s]: the wall of each
+    superpoint (0: none). Returns the scan points with the new superpoint graph, the region and wall of
+    each new superpoint, and how many bodies and pieces were split."""
     g = sp.graph
     point_region = region[g.label].copy()
     up = _facing_up(sp.normals)
@@ -49,7 +54,9 @@ def split_bodies_on_tops(
     off_wall = which[g.label] == 0  # a wall patch the region took in is neither a top nor a body
     z = sp.points[:, 2]
     walls = [q for q in planes if q["kind"] == "wall"]
-    for r in range(1, int(region.max(initial=0)) + 1):
+    r = 0
+    while r + 1 < nxt:  # a body split off a top is searched for tops of its own (a case's upper shelves)
+        r += 1
         mine = (point_region == r) & off_wall
         if mine.sum() < 2 * cfg.min_segment_points:
             continue
@@ -59,7 +66,7 @@ def split_bodies_on_tops(
         near = np.abs(z[flat, None] - np.asarray(heights)[None, :]) <= cfg.support_band / 2
         shelf = sp.points[flat[near.any(axis=1)], :2]
         shelves = (shelf.min(axis=0), shelf.max(axis=0)) if len(shelf) else None
-        for h in heights:
+        for h in heights[::-1]:  # the highest first (see above)
             mine = (point_region == r) & off_wall
             slab = mine & up & (np.abs(z - h) <= cfg.support_band / 2)
             if slab.sum() < cfg.top_min_points:
@@ -89,8 +96,11 @@ def split_bodies_on_tops(
                 p = sp.points[body]
                 lo, hi = p.min(axis=0), p.max(axis=0)
                 centre = p[:, :2].mean(axis=0)
-                if lo[2] > h + cfg.support_band or np.any(centre < tlo) or np.any(centre > thi):
+                if lo[2] > h + cfg.support_band:
                     continue  # it does not stand on the top (a shelf board over it, a part beside it)
+                if np.any(centre < tlo) or np.any(centre > thi):
+                    frame.append(c)  # on a top seen only along its edge: it may hold stored bodies
+                    continue
                 foot = p[p[:, 2] <= lo[2] + cfg.foot_height]
                 flo, fhi = foot.min(axis=0), foot.max(axis=0)
                 if not _held_by_top(
