@@ -542,11 +542,14 @@ def _side(lo: tuple[float, float, float], hi: tuple[float, float, float]):
     return _faces(lo, hi, (1.0, 0.0, 0.0))
 
 
-def _split(faces: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, int]:
-    """The region of each point after ``split_bodies_on_tops`` on one region holding all ``faces``."""
+def _split(
+    faces: list[tuple[np.ndarray, np.ndarray]], colours: list[tuple[float, float, float]] | None = None
+) -> tuple[np.ndarray, int]:
+    """The region of each point after ``split_bodies_on_tops`` on one region holding all ``faces`` (coloured
+    as ``_surfaces`` colours them)."""
     from rescene_core.segment.geometric.tops import split_bodies_on_tops
 
-    sp = _surfaces(faces)
+    sp = _surfaces(faces, colours)
     region = np.ones(sp.graph.size, np.int64)
     sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
     return region2[sp2.graph.label], split
@@ -645,8 +648,6 @@ def test_a_stack_at_a_shelfs_hidden_end_under_the_next_board_is_split_off_the_ca
 
 
 def test_a_stack_at_a_shelfs_end_seen_only_on_the_shelf_under_it_is_stored_a_piece_of_the_cases_colour_is_not():
-    from rescene_core.segment.geometric.tops import split_bodies_on_tops
-
     # a bookcase's shelf at 0.9 m, seen only up to x = 0.45 (its front edge too): a stack at x 0.55-0.75 hides
     # its end, which the shelf at 0.5 under it shows to reach x = 0.8; the next board over the stack at 1.3
     wood, blue = (0.58, 0.47, 0.37), (0.2, 0.3, 0.6)
@@ -657,10 +658,7 @@ def test_a_stack_at_a_shelfs_end_seen_only_on_the_shelf_under_it_is_stored_a_pie
     stack += [_side((x, 0.025, 0.925), (x, 0.25, 0.975)) for x in (0.525, 0.775)]
     n_case = sum(len(f[0]) for f in case)
     for colour, stored in ((blue, True), (wood, False)):
-        sp = _surfaces(case + stack, [wood] * len(case) + [colour] * len(stack))
-        region = np.ones(sp.graph.size, np.int64)
-        sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
-        point_region = region2[sp2.graph.label]
+        point_region, split = _split(case + stack, [wood] * len(case) + [colour] * len(stack))
         assert (point_region[:n_case] == 1).all()
         if stored:  # a stack of books: its centre lies over the case's shelves, under the shelf at 0.5
             assert split == 1 and len(np.unique(point_region[n_case:])) == 1 and point_region[-1] != 1
@@ -669,8 +667,6 @@ def test_a_stack_at_a_shelfs_end_seen_only_on_the_shelf_under_it_is_stored_a_pie
 
 
 def test_a_stack_on_a_shelf_seen_only_along_its_front_edge_is_split_off_the_case_frame_above_it():
-    from rescene_core.segment.geometric.tops import split_bodies_on_tops
-
     # a bookcase's shelf at 1.3 m (at the cameras' height) seen only along its front edge, y 0.2-0.3 of its
     # 0.3 m depth, the shelf at 0.9 under it seen whole: a stack at x 0.5-0.7 stands on the hidden part, its
     # centre behind all that is seen of its shelf; the next board over it at 1.7 m and the case's sides hold it
@@ -682,10 +678,7 @@ def test_a_stack_on_a_shelf_seen_only_along_its_front_edge_is_split_off_the_case
     case += [_side((x, 0.0, 1.325), (x, 0.3, 1.675)) for x in (0.0, 0.8)]
     stack = [_up((0.5, 0.025, 1.45), (0.7, 0.2, 1.45)), _faces((0.5, 0.225, 1.325), (0.7, 0.225, 1.425), (0, 1, 0))]
     stack += [_side((x, 0.025, 1.325), (x, 0.2, 1.425)) for x in (0.475, 0.725)]
-    sp = _surfaces(case + stack, [wood] * len(case) + [blue] * len(stack))
-    region = np.ones(sp.graph.size, np.int64)
-    sp2, region2, _, split = split_bodies_on_tops(sp, region, np.zeros(sp.graph.size, np.int64), CFG)
-    point_region = region2[sp2.graph.label]
+    point_region, split = _split(case + stack, [wood] * len(case) + [blue] * len(stack))
     n_case = sum(len(f[0]) for f in case)
     assert split == 1
     assert (point_region[:n_case] == 1).all()
